@@ -1,0 +1,3 @@
+"""seatune: tuned, uncertainty-quantified seakeeping models from logged sea trials."""
+
+__version__ = "0.1.0"

@@ -1,0 +1,3 @@
+from seatune.cli.main import main
+
+main()
