@@ -1,0 +1,118 @@
+"""The vessel model every stage uses: validated spec + hydro database + channels + base loading."""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from seatune.errors import UserError
+from seatune.io.vessel_yaml import LOADING_PARAMETERS, VesselSpec, load_vessel
+from seatune.physics.channels import Channel
+from seatune.physics.hydro import HydroDatabase, load_netcdf
+from seatune.physics.loading import Loading
+
+
+@dataclass(frozen=True)
+class VesselModel:
+    spec: VesselSpec
+    source: Path
+    db: HydroDatabase
+    channels: list[Channel]
+
+    @property
+    def base_loading(self) -> Loading:
+        return self.loading()
+
+    def loading(self, **overrides) -> Loading:
+        """The YAML loading condition with parameters replaced (scalars or arrays)."""
+        values = self.spec.loading.model_dump()
+        for key, val in overrides.items():
+            if key not in LOADING_PARAMETERS and key != "displacement":
+                known = ", ".join((*LOADING_PARAMETERS, "displacement"))
+                raise UserError(str(self.source), f"--set {key}", f"unknown loading parameter (one of {known})")
+            if key in ("mass", "displacement"):
+                values["mass"] = values["displacement"] = None
+            values[key] = val
+        try:
+            loading = Loading.from_mapping(values, rho=self.db.rho)
+        except ValueError as err:
+            raise UserError(str(self.source), "loading", str(err)) from None
+        self.check_in_database(loading)
+        return loading
+
+    def check_in_database(self, loading: Loading) -> None:
+        try:
+            self.db.draft_for_volume(loading.mass / self.db.rho)
+        except ValueError as err:
+            raise UserError(str(self.source), "loading.mass", str(err)) from None
+
+    def channel(self, name: str) -> Channel:
+        for ch in self.channels:
+            if ch.name == name:
+                return ch
+        raise UserError(str(self.source), "channels", f"no channel named {name!r}")
+
+    @property
+    def length(self) -> float | None:
+        return _attr_float(self.db, "length")
+
+    @property
+    def beam(self) -> float | None:
+        return _attr_float(self.db, "beam")
+
+
+def _attr_float(db: HydroDatabase, key: str) -> float | None:
+    val = (db.attrs or {}).get(key)
+    return None if val is None else float(val)
+
+
+def database_path(spec: VesselSpec, base: Path) -> Path | None:
+    return None if spec.hydro_database is None else base / spec.hydro_database
+
+
+def load_database(spec: VesselSpec, base: Path, source: Path) -> HydroDatabase:
+    h = spec.hull
+    path = database_path(spec, base)
+    if path is not None and path.exists():
+        try:
+            return load_netcdf(path)
+        except (OSError, KeyError, ValueError) as err:
+            raise UserError(str(path), None, f"not a seatune hydro database ({err})") from None
+    if h.capytaine is not None:
+        from seatune.io.capytaine_import import read_capytaine_dataset
+
+        return read_capytaine_dataset(base / h.capytaine.file, draft=h.capytaine.draft)
+    if h.wamit is not None:
+        from seatune.io.wamit import read_wamit
+
+        lo = spec.loading
+        mass = lo.mass if lo.mass is not None else spec.rho * lo.displacement
+        return read_wamit(str(base / h.wamit.prefix), draft=h.wamit.draft, rho=spec.rho, g=spec.g,
+                          length_scale=h.wamit.length_scale, mass=mass,
+                          center_of_mass=(lo.xcg, lo.ycg, lo.zcg - h.wamit.draft), water_depth=spec.depth_m)
+    where = f"hydro_database ({path})" if path is not None else "hydro_database"
+    raise UserError(str(source), where, f"hydro database not built yet: run `seatune vessel build {source}`")
+
+
+def open_vessel(path: str | Path) -> VesselModel:
+    spec, base = load_vessel(path)
+    db = load_database(spec, base, Path(path))
+    channels = [Channel(c.name, c.kind, c.axis, c.point) for c in spec.channels]
+    model = VesselModel(spec=spec, source=Path(path), db=db, channels=channels)
+    mass_tuned = {"mass", "displacement"} & set(spec.priors)
+    if mass_tuned and db.n_drafts == 1:
+        raise UserError(str(path), f"priors.{sorted(mass_tuned)[0]}",
+                        "cannot be tuned with a single-draft hydro database")
+    model.check_in_database(model.base_loading)
+    return model
+
+
+def file_hash(path: str | Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+
+
+def as_array(value) -> np.ndarray:
+    return np.atleast_1d(np.asarray(value, dtype=float))
