@@ -1,0 +1,13 @@
+"""`make bench`: one JSON line per benchmark (name, reference_s, seatune_s, ratio, max_rel_diff, ...)."""
+
+import json
+import sys
+
+from benchmarks import bench_channel_sigma
+
+BENCHMARKS = {"channel_sigma": bench_channel_sigma.run}
+
+if __name__ == "__main__":
+    names = sys.argv[1:] or list(BENCHMARKS)
+    for name in names:
+        print(json.dumps(BENCHMARKS[name]()), flush=True)
