@@ -60,6 +60,24 @@ def motion_raos(db: HydroDatabase, loading: Loading) -> np.ndarray:
     return np.swapaxes(np.linalg.solve(H, np.swapaxes(F, -1, -2)), -1, -2)
 
 
+def motion_raos_at(db: HydroDatabase, loading: Loading, omega: np.ndarray) -> np.ndarray:
+    """ξ(ω, β) of one loading condition at arbitrary frequencies: (len(omega), nb, 6).
+
+    A, B are interpolated linearly in ω and F by power and phase (physics/interp.py); the equation of
+    motion is then solved at each frequency, so resonance peaks between grid points are resolved.
+    """
+    from seatune.physics.interp import interp_axis0
+
+    lh = load(db, loading.take(slice(0, 1)))
+    i0, i1, w = (a[0] for a in lh.draft_index)
+    A = interp_axis0(db.omega, (1 - w) * db.added_mass[i0] + w * db.added_mass[i1], omega)
+    B = interp_axis0(db.omega, (1 - w) * db.radiation_damping[i0] + w * db.radiation_damping[i1], omega)
+    F = interp_axis0(db.omega, (1 - w) * db.excitation_force[i0] + w * db.excitation_force[i1], omega)
+    om = omega[:, None, None]
+    H = -(om**2) * (lh.mass_matrix[0] + A) - 1j * om * (B + lh.extra_damping[0]) + lh.stiffness[0]
+    return np.swapaxes(np.linalg.solve(H, np.swapaxes(F, -1, -2)), -1, -2)
+
+
 def channel_raos(db: HydroDatabase, loading: Loading, channels: list[Channel]) -> np.ndarray:
     """Channel transfer functions H_j(ω, β): (N, nw, nb, nch) complex."""
     lh = load(db, loading)
