@@ -4,7 +4,7 @@ VENV    := .venv
 BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
 
-.PHONY: install run test test-slow bench lint clean
+.PHONY: install run test test-slow bench lint sample clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -26,6 +26,10 @@ test-slow: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks
+
+# Regenerate the committed sample trial from its scenario (deterministic: the seed is in the YAML).
+sample: $(STAMP)
+	$(BIN)/seatune simulate configs/scenarios/sample_trial.yaml --out sample_logs
 
 lint: $(STAMP)
 	$(BIN)/ruff check seatune tests benchmarks

@@ -3,9 +3,9 @@
 import json
 import sys
 
-from benchmarks import bench_channel_sigma
+from benchmarks import bench_channel_sigma, bench_synthesis
 
-BENCHMARKS = {"channel_sigma": bench_channel_sigma.run}
+BENCHMARKS = {"channel_sigma": bench_channel_sigma.run, "synthesis": bench_synthesis.run}
 
 if __name__ == "__main__":
     names = sys.argv[1:] or list(BENCHMARKS)

@@ -12,21 +12,16 @@ import math
 from pathlib import Path
 from typing import Annotated, Literal
 
-import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from seatune.errors import UserError
+from seatune.io.yaml_config import NonNegativeFloat, PositiveFloat, read_yaml, validate
+from seatune.io.yaml_config import Strict as _Strict
 
 LOADING_PARAMETERS = (
     "mass", "xcg", "ycg", "zcg", "r44", "r55", "r66",
     "gmt_fs", "gml_fs", "beta33", "beta44", "beta55",
 )
-PositiveFloat = Annotated[float, Field(gt=0)]
-NonNegativeFloat = Annotated[float, Field(ge=0)]
-
-
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
 
 class ParametricHullSpec(_Strict):
@@ -176,24 +171,8 @@ class VesselSpec(_Strict):
         return math.inf if self.water_depth == "infinite" else float(self.water_depth)
 
 
-def _format_validation_error(err: ValidationError) -> tuple[str, str]:
-    first = err.errors()[0]
-    place = ".".join(str(p) for p in first["loc"]) or "(top level)"
-    kind = first["type"]
-    if kind == "extra_forbidden":
-        return place, "unknown key"
-    if kind == "missing":
-        return place, "required key is missing"
-    msg = first["msg"].removeprefix("Value error, ")
-    return place, msg
-
-
 def parse_vessel(data: dict, source: str) -> VesselSpec:
-    try:
-        spec = VesselSpec.model_validate(data)
-    except ValidationError as err:
-        place, problem = _format_validation_error(err)
-        raise UserError(source, place, problem) from None
+    spec = validate(VesselSpec, data, source)
     _check_consistency(spec, source)
     return spec
 
@@ -215,21 +194,6 @@ def _check_consistency(spec: VesselSpec, source: str) -> None:
     for name, prior in spec.priors.items():
         if prior.bounds is not None and prior.mean is not None and not prior.bounds[0] <= prior.mean <= prior.bounds[1]:
             raise UserError(source, f"priors.{name}.mean", f"{prior.mean:g} is outside bounds {list(prior.bounds)}")
-
-
-def read_yaml(path: str | Path) -> dict:
-    path = Path(path)
-    if not path.is_file():
-        raise UserError(str(path), None, "file not found")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        place = f"line {mark.line + 1}" if mark else None
-        raise UserError(str(path), place, f"not valid YAML ({getattr(err, 'problem', err)})") from None
-    if not isinstance(data, dict):
-        raise UserError(str(path), None, "expected a mapping at the top level")
-    return data
 
 
 def load_vessel(path: str | Path) -> tuple[VesselSpec, Path]:
