@@ -1,0 +1,64 @@
+"""Pipeline stages: `seatune ingest | windows | filter RUN.yaml`. Each runs the stages before it when their
+artefacts are missing or stale, and prints one summary line per stage."""
+
+from __future__ import annotations
+
+import time
+
+import click
+
+from seatune.cli.main import cli, handle_errors
+
+ORDER = ("ingest", "windows", "filter")
+
+
+def _line(stage: str, summary: dict, seconds: float) -> str:
+    if summary.get("skipped"):
+        return f"{stage}: up to date (skipped)"
+    if stage == "ingest":
+        c = summary["counts"]
+        fixed = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in c.items() if v) or "no defects"
+        return (f"ingest: {summary['samples']:,} samples in {summary['records']} record(s), {summary['hours']:.1f} h, "
+                f"{summary['hindcast_hours']} hindcast hours; {fixed} ({seconds:.0f} s)")
+    if stage == "windows":
+        return (f"windows: {summary['accepted']} of {summary['candidates']} candidates accepted, "
+                f"{summary['accepted_minutes']:.0f} min free floating ({seconds:.0f} s)")
+    return (f"filter: {summary['windows']} windows × {summary['channels']} channels, median cutoff "
+            f"{summary['median_cutoff_hz']:.2f} Hz ({seconds:.0f} s)")
+
+
+def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = ()) -> None:
+    from seatune.io.run_yaml import Run
+    from seatune.pipeline.filter import filter_stage
+    from seatune.pipeline.ingest import ingest
+    from seatune.pipeline.vessel import open_vessel
+    from seatune.pipeline.windows import windows_stage
+
+    run = Run(run_yaml)
+    model = open_vessel(run.vessel_path)
+    run.run_dir.mkdir(parents=True, exist_ok=True)
+    stages = {"ingest": lambda f: ingest(run, model, echo=click.echo, force=f),
+              "windows": lambda f: windows_stage(run, echo=click.echo, force=f),
+              "filter": lambda f: filter_stage(run, model, echo=click.echo, force=f)}
+    redo = False
+    for stage in ORDER[: ORDER.index(last) + 1]:
+        redo = redo or stage in force
+        start = time.perf_counter()
+        summary = stages[stage](redo)  # later stages see new inputs through their fingerprints
+        click.echo(_line(stage, summary, time.perf_counter() - start))
+
+
+def _command(stage: str, doc: str):
+    @cli.command(name=stage, help=doc)
+    @click.argument("run_yaml", type=click.Path(dir_okay=False))
+    @click.option("--force", multiple=True, type=click.Choice(ORDER), help="Redo this stage (and what follows).")
+    @handle_errors
+    def command(run_yaml, force):
+        run_stages(run_yaml, stage, tuple(force))
+
+    return command
+
+
+ingest = _command("ingest", "Logs + hindcast → motions.parquet, waves.parquet.")
+windows = _command("windows", "Free-floating, stationary windows → windows.parquet.")
+filter_ = _command("filter", "Adaptive lowpass cutoff, σ, Tz and Welch spectra per window → window_stats.parquet.")

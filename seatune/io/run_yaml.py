@@ -1,0 +1,94 @@
+"""Run YAML (`configs/runs/*.yaml`): where the logs, hindcast and vessel are, and every stage's settings.
+
+Paths are relative to the run YAML. See README "Run YAML" for every key.
+"""
+
+from __future__ import annotations
+
+import glob
+from pathlib import Path
+from typing import Literal
+
+from pydantic import Field
+
+from seatune.errors import UserError
+from seatune.io.yaml_config import PositiveFloat, Strict, read_yaml, validate
+from seatune.pipeline.windows import WindowSettings
+
+LogFormat = Literal["auto", "mcap", "ros1bag", "ros2bag", "csv", "parquet"]
+
+
+class LogSpec(Strict):
+    path: str  # file, directory (ROS2 bag) or glob
+    format: LogFormat = "auto"
+    kind: Literal["auto", "imu", "gnss", "heave", "motions"] = "auto"  # what a CSV / Parquet log carries
+    time_column: str = "time"
+    columns: dict[str, str] = {}  # log column → seatune name (e.g. {Lat: latitude})
+
+
+class TopicsSpec(Strict):
+    """Topic names; `null` = auto-detect by message type."""
+
+    imu: str | None = None
+    gnss_fix: str | None = None
+    gnss_vel: str | None = None
+    odometry: str | None = None
+
+
+class HindcastSource(Strict):
+    path: str
+    format: Literal["auto", "era5", "ww3", "csv"] = "auto"
+
+
+class IngestSettings(Strict):
+    rate_hz: PositiveFloat = 10.0
+    max_gap_s: PositiveFloat = 2.0  # longer gaps split the record instead of being interpolated
+    frame: Literal["FLU", "NED"] = "FLU"  # body/world frames of the IMU (REP-103 FLU/ENU, or FRD/NED)
+
+
+class FilterSettings(Strict):
+    theta_max: PositiveFloat = 0.05  # Han A3
+    gamma_max: PositiveFloat = 0.9
+    f_min_hz: PositiveFloat = 0.1
+    f_max_hz: PositiveFloat = 0.9
+    highpass_hz: PositiveFloat | None = None
+    welch_segment_s: PositiveFloat = 256.0
+    channels: list[str] | None = None  # default: every vessel channel present in the motion table
+
+
+class RunSpec(Strict):
+    name: str
+    run_dir: str
+    vessel: str
+    logs: list[LogSpec] = Field(min_length=1)
+    topics: TopicsSpec = TopicsSpec()
+    channels: dict[str, str] = {}  # motion-table column → vessel channel name, where they differ
+    hindcast: HindcastSource
+    ingest: IngestSettings = IngestSettings()
+    windows: WindowSettings = WindowSettings()
+    filter: FilterSettings = FilterSettings()
+
+
+class Run:
+    """A validated run YAML with its paths resolved."""
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        self.spec = validate(RunSpec, read_yaml(self.path), str(self.path))
+        self.base = self.path.parent
+        self.run_dir = (self.base / self.spec.run_dir).resolve()
+        self.vessel_path = self.base / self.spec.vessel
+        if not self.vessel_path.is_file():
+            raise UserError(str(self.path), "vessel", f"vessel file not found: {self.vessel_path}")
+        self.hindcast_path = self.base / self.spec.hindcast.path
+        if not self.hindcast_path.exists():
+            raise UserError(str(self.path), "hindcast.path", f"file not found: {self.hindcast_path}")
+        self.logs: list[tuple[Path, LogSpec]] = []
+        for i, log in enumerate(self.spec.logs):
+            matches = sorted(glob.glob(str(self.base / log.path)))
+            if not matches:
+                raise UserError(str(self.path), f"logs.{i}.path", f"no file matches {self.base / log.path}")
+            self.logs += [(Path(m), log) for m in matches]
+
+    def artefact(self, name: str) -> Path:
+        return self.run_dir / name

@@ -1,0 +1,123 @@
+"""`seatune ingest`: logger files + hindcast → motions.parquet and waves.parquet (DESIGN §5)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from seatune.errors import UserError
+from seatune.io.run_yaml import Run
+
+KIND_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
+WAVE_UNITS = {"time": "UTC", "hs": "m", "tp": "s", "dir_from_deg": "deg", "spreading": "rad", "mwp": "s",
+              "tm01": "s", "wind_hs": "m", "wind_tp": "s", "wind_dir_from_deg": "deg", "swell_hs": "m",
+              "swell_tp": "s", "swell_dir_from_deg": "deg", "wind_mwp": "s", "swell_mwp": "s", "source": "",
+              "lat": "deg", "lon": "deg"}
+
+
+SOURCE_FIELDS = {"roll": "orientation / qx..qw", "pitch": "orientation / qx..qw",
+                 "roll_rate": "angular_velocity.x / wx",
+                 "pitch_rate": "angular_velocity.y / wy", "yaw_rate": "angular_velocity.z / wz",
+                 "imu_fx": "linear_acceleration.x / ax", "imu_fy": "linear_acceleration.y / ay",
+                 "imu_fz": "linear_acceleration.z / az"}
+
+
+def read_logs(run: Run, echo=print) -> list:
+    """Every log of the run, read by the reader its content calls for."""
+    from seatune.io.log_readers import read_log
+
+    out = []
+    for path, log in run.logs:
+        options = {"time_column": log.time_column, "column_map": log.columns or None}
+        out.append(read_log(path, format=log.format, table_options=options))
+    return out
+
+
+def build_motions(run: Run, logs: list, heave_names: dict[str, str]) -> tuple[pd.DataFrame, dict, list[str]]:
+    """The motion table on a uniform grid, with the counts of what was repaired and the warnings."""
+    from seatune.pipeline.motions import build_motions as assemble
+
+    t = run.spec.topics
+    motions, report = assemble(logs, rate_hz=run.spec.ingest.rate_hz, max_gap_s=run.spec.ingest.max_gap_s,
+                               frame=run.spec.ingest.frame, imu_topic=t.imu, fix_topic=t.gnss_fix,
+                               vel_topic=t.gnss_vel or t.odometry)
+    counts = dict(report.counts)
+    for column, field in SOURCE_FIELDS.items():
+        if column in motions and not np.isfinite(motions[column].to_numpy()).any():
+            where = ", ".join(str(log.path) for log in logs if log.of_type("sensor_msgs/msg/Imu") or
+                              log.format in ("csv", "parquet"))
+            raise UserError(where or str(run.path), column, f"no finite value in the whole trial (IMU {field})")
+    imu = np.isfinite(motions["roll"].to_numpy())  # the IMU defines the trial; GNSS alone is no motion record
+    if imu.any():
+        first, last = np.argmax(imu), imu.size - np.argmax(imu[::-1])
+        counts["samples_outside_imu"] = int(imu.size - (last - first))
+        motions = motions.iloc[first:last].reset_index(drop=True)
+    motions = motions.rename(columns={**heave_names, **run.spec.channels})
+    return motions, counts, list(report.warnings)
+
+
+def heave_column_names(model) -> dict[str, str]:
+    """`/<sensor>/<kind>` topic → vessel channel name, from the channels' sensor tags."""
+    out = {}
+    for c in model.spec.channels:
+        if c.sensor and c.kind in KIND_UNITS:
+            out[f"{c.sensor}_{c.kind}"] = c.name
+    return out
+
+
+def build_waves(run: Run, motions: pd.DataFrame):
+    """Hourly hindcast at the vessel track (bilinear in space, linear in time)."""
+    from seatune.io.hindcast_readers import at_track, read_hindcast
+
+    hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
+    track = motions[np.isfinite(motions["lat"]) & np.isfinite(motions["lon"])]
+    t0, t1 = motions["time"].iloc[0], motions["time"].iloc[-1]
+    hours = pd.date_range(t0.floor("h"), t1.ceil("h"), freq="h")
+    secs = (track["time"] - t0).dt.total_seconds().to_numpy()
+    at = np.clip((hours - t0).total_seconds().to_numpy(), secs[0], secs[-1])
+    lat = np.interp(at, secs, track["lat"].to_numpy())
+    lon = np.degrees(np.interp(at, secs, np.unwrap(np.radians(track["lon"].to_numpy()))))
+    lon = (lon + 180.0) % 360.0 - 180.0
+    waves = at_track(hc, hours, lat, lon)
+    waves["lat"], waves["lon"] = lat, lon
+    return waves, hc
+
+
+def motion_units(columns, model) -> dict[str, str]:
+    from seatune.pipeline.motions import UNITS
+
+    units = dict(UNITS)
+    for c in model.spec.channels:
+        units.setdefault(c.name, {"angle": "rad", "rate": "rad/s", **KIND_UNITS,
+                                  "specific_force": "m/s^2"}[c.kind])
+    return {c: units.get(c, "") for c in columns}
+
+
+def ingest(run: Run, model, echo=print, force: bool = False) -> dict:
+    """Run the stage; returns a summary dict. Skips when the artefacts are fresh."""
+    from seatune.io.parquet import write_table
+    from seatune.io.rundir import fingerprint, is_fresh
+
+    inputs = [p for p, _ in run.logs] + [run.hindcast_path, run.vessel_path]
+    settings = {"logs": [log.model_dump() for log in run.spec.logs], "topics": run.spec.topics.model_dump(),
+                "channels": run.spec.channels, "ingest": run.spec.ingest.model_dump(),
+                "hindcast": run.spec.hindcast.model_dump()}
+    fp = fingerprint(inputs, settings)
+    out_m, out_w = run.artefact("motions.parquet"), run.artefact("waves.parquet")
+    if not force and is_fresh([out_m, out_w], fp):
+        return {"skipped": True}
+    logs = read_logs(run)
+    motions, counts, warnings = build_motions(run, logs, heave_column_names(model))
+    if "lat" not in motions:
+        raise UserError(str(run.path), "logs", "no position (NavSatFix or GNSS CSV): the hindcast cannot be "
+                                                "placed on the track")
+    waves, hc = build_waves(run, motions)
+    meta = {"fingerprint": fp, "counts": counts, "warnings": warnings,
+            "truncated_logs": [str(log.path) for log in logs if log.truncated]}
+    write_table(motions, out_m, motion_units(motions.columns, model), meta)
+    write_table(waves, out_w, {c: WAVE_UNITS.get(c, "") for c in waves.columns}, {"fingerprint": fp})
+    for w in warnings:
+        echo(f"warning: {w}")
+    return {"skipped": False, "samples": len(motions), "records": int(motions["record"].nunique()),
+            "hours": (motions["time"].iloc[-1] - motions["time"].iloc[0]).total_seconds() / 3600,
+            "counts": counts, "hindcast_hours": len(waves)}

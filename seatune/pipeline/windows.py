@@ -1,0 +1,200 @@
+"""Free-floating, stationary windows (de Jong ch. 4 criteria; Han uses 20-min records).
+
+Candidates are the runs of the motion table where the speed over ground is low and the runs where it is
+not (transits), per contiguous record. A low-speed run is cut into windows whose heading stays within a
+band and whose length lies between the minimum and maximum duration; each window is then tested for a
+stationary sea: the hindcast Hs may not change by more than a fraction, and the variances of a motion
+channel over sub-windows must pass an F-test at the given significance (their effective degrees of
+freedom come from the window's own spectrum). Every candidate is kept with accepted / reason.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy.stats import f as f_dist
+
+from seatune.io.yaml_config import NonNegativeFloat, PositiveFloat, Strict
+
+
+class WindowSettings(Strict):
+    max_sog: PositiveFloat = 0.5  # m/s
+    sog_smoothing_s: PositiveFloat = 60.0
+    max_heading_change_deg: PositiveFloat = 10.0
+    min_duration_s: PositiveFloat = 1200.0  # Han: 20 min; de Jong: 17 min
+    max_duration_s: PositiveFloat = 3600.0
+    max_hs_change: NonNegativeFloat = 0.3  # fraction of the window's mean hindcast Hs
+    stationarity_channel: str = "roll"
+    sub_windows: int = 4
+    stationarity_alpha: PositiveFloat = 1e-3
+
+
+@dataclass(frozen=True)
+class Candidate:
+    start: pd.Timestamp
+    end: pd.Timestamp
+    record: int
+    accepted: bool
+    reason: str
+    heading_deg: float
+    sog: float
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """[start, stop) index pairs of the runs of equal values in mask."""
+    edges = np.flatnonzero(np.diff(mask.astype(int))) + 1
+    bounds = np.r_[0, edges, mask.size]
+    return list(zip(bounds[:-1], bounds[1:], strict=True))
+
+
+def _absorb_short_runs(mask: np.ndarray, shortest: int) -> np.ndarray:
+    """Runs shorter than `shortest` samples (the speed flickering about the threshold) join the run before."""
+    mask = mask.copy()
+    runs = _runs(mask)
+    for i, (a, b) in enumerate(runs):
+        if b - a < shortest and len(runs) > 1:
+            mask[a:b] = mask[runs[i - 1][0]] if i > 0 else mask[runs[1][0]]
+    return mask
+
+
+def _circular_mean_deg(deg: np.ndarray) -> float:
+    r = np.radians(deg)
+    return float(np.degrees(np.arctan2(np.sin(r).mean(), np.cos(r).mean())) % 360.0)
+
+
+def _heading_spread(deg: np.ndarray) -> np.ndarray:
+    """Running max − min of the unwrapped heading [deg]."""
+    u = np.degrees(np.unwrap(np.radians(deg)))
+    return np.maximum.accumulate(u) - np.minimum.accumulate(u)
+
+
+def effective_dof(x: np.ndarray, fs: float) -> float:
+    """ν of the sample variance from the record's own periodogram: ν = T m0² / (π ∫ S² dω)."""
+    x = x - x.mean()
+    spec = np.abs(np.fft.rfft(x)) ** 2
+    spec[0] = 0.0
+    # one-sided S(ω) up to a constant; ν is scale-free: ν = N (Σ S)² / (2 Σ S²) for the discrete periodogram
+    return float(x.size * spec.sum() ** 2 / (2 * spec.size * (spec**2).sum()))
+
+
+def stationarity_test(x: np.ndarray, fs: float, parts: int, alpha: float) -> tuple[bool, float]:
+    """F-test of the largest against the smallest sub-window variance (Bonferroni over the pairs)."""
+    chunks = np.array_split(x, parts)
+    var = np.array([c.var() for c in chunks])
+    nu = np.array([max(effective_dof(c, fs), 2.0) for c in chunks])
+    hi, lo = int(var.argmax()), int(var.argmin())
+    ratio = var[hi] / var[lo]
+    pairs = parts * (parts - 1) / 2
+    limit = f_dist.ppf(1 - alpha / (2 * pairs), nu[hi], nu[lo])
+    return bool(ratio <= limit), float(ratio)
+
+
+def find_windows(motions: pd.DataFrame, waves: pd.DataFrame | None, settings: WindowSettings,
+                 fs: float) -> list[Candidate]:
+    """Candidates over the motion table (columns time, record, sog, heading_deg and motion channels)."""
+    out: list[Candidate] = []
+    for record, rec in motions.groupby("record", sort=True):
+        rec = rec.reset_index(drop=True)
+        n_smooth = max(1, int(round(settings.sog_smoothing_s * fs)))
+        sog = rec["sog"].rolling(n_smooth, center=True, min_periods=1).mean().to_numpy()
+        slow = _absorb_short_runs(sog < settings.max_sog, n_smooth)
+        for a, b in _runs(slow):
+            part = rec.iloc[a:b]
+            if not slow[a]:
+                out.append(_candidate(part, record, False, f"moving: speed over ground {sog[a:b].mean():.1f} m/s "
+                                                           f"> {settings.max_sog:g} m/s", sog[a:b]))
+                continue
+            out += _split_slow_run(part, record, sog[a:b], waves, settings, fs)
+    return out
+
+
+def _candidate(part: pd.DataFrame, record: int, accepted: bool, reason: str, sog: np.ndarray) -> Candidate:
+    return Candidate(start=part["time"].iloc[0], end=part["time"].iloc[-1], record=int(record), accepted=accepted,
+                     reason=reason, heading_deg=_circular_mean_deg(part["heading_deg"].to_numpy()),
+                     sog=float(np.mean(sog)))
+
+
+def _split_slow_run(part, record, sog, waves, settings: WindowSettings, fs: float) -> list[Candidate]:
+    out = []
+    n_min = int(settings.min_duration_s * fs)
+    n_max = int(settings.max_duration_s * fs)
+    start = 0
+    heading = part["heading_deg"].to_numpy()
+    while start < len(part):
+        spread = _heading_spread(heading[start:start + n_max])
+        stop = start + int(np.searchsorted(spread, settings.max_heading_change_deg, side="right"))
+        piece = part.iloc[start:stop]
+        if stop - start < n_min:
+            turned = stop < len(part) and stop - start < n_max and spread[-1] > settings.max_heading_change_deg
+            why = (f"heading changed more than {settings.max_heading_change_deg:g}° within "
+                   f"{(stop - start) / fs / 60:.0f} min") if turned else (
+                   f"too short: {(stop - start) / fs / 60:.1f} min < {settings.min_duration_s / 60:g} min")
+            out.append(_candidate(piece, record, False, why, sog[start:stop]))
+        else:
+            out.append(_judge(piece, record, sog[start:stop], waves, settings, fs))
+        start = stop
+    return out
+
+
+def _judge(piece, record, sog, waves, settings: WindowSettings, fs: float) -> Candidate:
+    if waves is not None and len(waves) >= 2:
+        t0, t1 = piece["time"].iloc[0], piece["time"].iloc[-1]
+        ref = waves["time"].iloc[0]
+        inside = waves.loc[(waves["time"] > t0) & (waves["time"] < t1), "time"]
+        inner = (inside - ref).dt.total_seconds().to_numpy()
+        at = np.r_[(t0 - ref).total_seconds(), inner, (t1 - ref).total_seconds()]
+        hs = np.interp(at, (waves["time"] - ref).dt.total_seconds().to_numpy(), waves["hs"].to_numpy())
+        if hs.mean() > 0:  # the hindcast over the window itself, interpolated in time
+            change = (hs.max() - hs.min()) / hs.mean()
+            if change > settings.max_hs_change:
+                limit = 100 * settings.max_hs_change
+                why = f"sea not stationary: hindcast Hs changes {100 * change:.0f} % > {limit:g} %"
+                return _candidate(piece, record, False, why, sog)
+    channel = settings.stationarity_channel
+    if channel in piece:
+        ok, ratio = stationarity_test(piece[channel].to_numpy(), fs, settings.sub_windows,
+                                      settings.stationarity_alpha)
+        if not ok:
+            return _candidate(piece, record, False, f"motions not stationary: {channel} variance ratio "
+                                                    f"{ratio:.2f} over {settings.sub_windows} sub-windows", sog)
+    return _candidate(piece, record, True, "free floating, stationary", sog)
+
+
+def windows_table(candidates: list[Candidate]) -> pd.DataFrame:
+    rows = [{
+        "window_id": i, "start": c.start, "end": c.end, "duration_s": (c.end - c.start).total_seconds(),
+        "record": c.record, "accepted": c.accepted, "reason": c.reason, "heading_deg": c.heading_deg, "sog": c.sog,
+    } for i, c in enumerate(candidates)]
+    return pd.DataFrame(rows)
+
+
+WINDOW_UNITS = {"window_id": "", "start": "UTC", "end": "UTC", "duration_s": "s", "record": "", "accepted": "",
+                "reason": "", "heading_deg": "deg", "sog": "m/s", "hs": "m", "tp": "s", "dir_from_deg": "deg"}
+
+
+def windows_stage(run, echo=print, force: bool = False) -> dict:
+    """Read motions/waves, find the candidates, write windows.parquet (with the hindcast at mid-window)."""
+    from seatune.io.parquet import write_table
+    from seatune.io.rundir import fingerprint, is_fresh
+
+    src = [run.artefact("motions.parquet"), run.artefact("waves.parquet")]
+    fp = fingerprint(src, run.spec.windows.model_dump())
+    out = run.artefact("windows.parquet")
+    if not force and is_fresh([out], fp):
+        return {"skipped": True}
+    motions, waves = pd.read_parquet(src[0]), pd.read_parquet(src[1])
+    fs = run.spec.ingest.rate_hz
+    table = windows_table(find_windows(motions, waves, run.spec.windows, fs))
+    mid = table["start"] + (table["end"] - table["start"]) / 2
+    secs = (waves["time"] - waves["time"].iloc[0]).dt.total_seconds().to_numpy()
+    at = (mid - waves["time"].iloc[0]).dt.total_seconds().to_numpy()
+    for col in ("hs", "tp"):
+        table[col] = np.interp(at, secs, waves[col].to_numpy())
+    d = np.radians(waves["dir_from_deg"].to_numpy())
+    east, north = np.interp(at, secs, np.sin(d)), np.interp(at, secs, np.cos(d))
+    table["dir_from_deg"] = np.degrees(np.arctan2(east, north)) % 360
+    write_table(table, out, WINDOW_UNITS, {"fingerprint": fp})
+    return {"skipped": False, "candidates": len(table), "accepted": int(table["accepted"].sum()),
+            "accepted_minutes": float(table.loc[table["accepted"], "duration_s"].sum() / 60)}
