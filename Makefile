@@ -14,9 +14,12 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
-# The main job on the embedded default (the sample vessel; later: sample_logs/ → report).
+# The main job on the embedded default: the sample vessel and sample_logs/ through ingest → windows → filter
+# (later stages extend it to the report).
 run: $(STAMP)
 	$(BIN)/seatune vessel info configs/vessels/sample_osv.yaml
+	$(BIN)/seatune filter configs/runs/sample.yaml
+	@echo "artefacts in runs/sample/"
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
