@@ -3,9 +3,10 @@
 import json
 import sys
 
-from benchmarks import bench_channel_sigma, bench_filter, bench_synthesis
+from benchmarks import bench_channel_sigma, bench_filter, bench_ingest, bench_synthesis
 
-BENCHMARKS = {"channel_sigma": bench_channel_sigma.run, "synthesis": bench_synthesis.run, "filter": bench_filter.run}
+BENCHMARKS = {"channel_sigma": bench_channel_sigma.run, "synthesis": bench_synthesis.run, "filter": bench_filter.run,
+              "ingest": bench_ingest.run}
 
 if __name__ == "__main__":
     names = sys.argv[1:] or list(BENCHMARKS)
