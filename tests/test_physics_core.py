@@ -70,11 +70,10 @@ def test_raos_equal_capytaine_post_pro_rao(sample_model, sample_dataset):
 def test_stiffness_equals_capytaine_hydrostatics(sample_model):
     import capytaine as cpt
 
-    from seatune.physics.hull import ParametricHull, hull_mesh
+    from seatune.physics.hull import hull_mesh
 
     p = sample_model.spec.hull.parametric
-    hull = ParametricHull(p.length, p.beam, p.depth, p.bilge_radius, p.midbody, p.bow_fineness,
-                          p.stern_fineness, p.stern_halfbreadth)
+    hull = p.hull()
     db = sample_model.db
     for k in (0, 3):
         draft = db.drafts[k]

@@ -36,6 +36,13 @@ class ParametricHullSpec(_Strict):
     stations: Annotated[int, Field(ge=8)] = 56
     girth_panels: Annotated[int, Field(ge=6)] = 22
 
+    def hull(self):
+        """The geometry as `seatune.physics.hull.ParametricHull`."""
+        from seatune.physics.hull import ParametricHull
+
+        return ParametricHull(self.length, self.beam, self.depth, self.bilge_radius, self.midbody,
+                              self.bow_fineness, self.stern_fineness, self.stern_halfbreadth)
+
 
 class MeshHullSpec(_Strict):
     file: str

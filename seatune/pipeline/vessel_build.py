@@ -10,7 +10,7 @@ import numpy as np
 
 from seatune.errors import UserError
 from seatune.io.vessel_yaml import VesselSpec
-from seatune.physics.hull import ParametricHull, hull_mesh
+from seatune.physics.hull import hull_mesh
 from seatune.physics.hydro import DOFS, HydroDatabase, dof_array
 
 
@@ -29,9 +29,7 @@ def _bodies(spec: VesselSpec, base: Path):
     for draft in spec.drafts:
         if h.parametric is not None:
             p = h.parametric
-            hull = ParametricHull(p.length, p.beam, p.depth, p.bilge_radius, p.midbody,
-                                  p.bow_fineness, p.stern_fineness, p.stern_halfbreadth)
-            mesh, lid = hull_mesh(hull, draft, p.stations, p.girth_panels)
+            mesh, lid = hull_mesh(p.hull(), draft, p.stations, p.girth_panels)
         else:
             path = base / h.mesh.file
             try:
