@@ -268,3 +268,40 @@ def test_seatune_layout_loads_as_is(capy, tmp_path):
     for name in ("omega", "wave_direction", "added_mass", "radiation_damping", "added_mass_inf",
                  "excitation_force", "buoyancy_stiffness", "disp_volume", "center_of_buoyancy", "drafts"):
         assert_allclose(getattr(back, name), getattr(db, name), rtol=1e-12, err_msg=name)
+
+
+def _vessel_yaml(tmp_path, hull: dict, ds) -> "Path":  # noqa: F821
+    import yaml
+
+    mass, cog = _mass_cog(ds)
+    spec = {"name": "imported box", "hull": hull, "rho": RHO, "g": G,
+            "loading": {"mass": mass, "xcg": float(cog[0]), "ycg": float(cog[1]), "zcg": float(cog[2]) + 2.0,
+                        "r44": 3.0, "r55": 6.0, "r66": 6.0}}
+    path = tmp_path / "vessel.yaml"
+    path.write_text(yaml.safe_dump(spec))
+    return path
+
+
+@pytest.mark.parametrize("source", ["wamit", "capytaine"])
+def test_imported_hull_through_vessel_yaml_gives_capytaine_gm(capy, tmp_path, source):
+    """`seatune vessel info` on a WAMIT / Capytaine hull: GMT = C44/(m g) of Capytaine's own stiffness."""
+    import json
+    import subprocess
+    import sys
+
+    ds, _ = capy
+    if source == "wamit":
+        _export(ds, tmp_path)
+        hull = {"wamit": {"prefix": "box", "draft": 2.0}}
+    else:
+        export_dataset(str(tmp_path / "box.nc"), ds)
+        hull = {"capytaine": {"file": "box.nc", "draft": 2.0}}
+    path = _vessel_yaml(tmp_path, hull, ds)
+    res = subprocess.run([sys.executable, "-m", "seatune", "vessel", "info", str(path), "--json"],
+                         capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    info = json.loads(res.stdout)
+    mass, _ = _mass_cog(ds)
+    c44 = float(ds.hydrostatic_stiffness.sel(influenced_dof="Roll", radiating_dof="Roll"))
+    assert info["gmt_m"] == pytest.approx(c44 / (mass * G), rel=1e-5)
+    assert info["draft_m"] == 2.0
