@@ -24,10 +24,16 @@ SOURCE_FIELDS = {"roll": "orientation / qx..qw", "pitch": "orientation / qx..qw"
 
 def read_logs(run: Run, echo=print) -> list:
     """Every log of the run, read by the reader its content calls for."""
+    import sys
+
+    from rich.progress import track
+
     from seatune.io.log_readers import read_log
 
     out = []
-    for path, log in run.logs:
+    bar = track(run.logs, description="reading logs", transient=True, console=None,
+                disable=not sys.stderr.isatty())
+    for path, log in bar:
         options = {"time_column": log.time_column, "column_map": log.columns or None}
         out.append(read_log(path, format=log.format, table_options=options))
     return out
