@@ -132,10 +132,3 @@ def load(db: HydroDatabase, loading: Loading) -> LoadedHydro:
     for dof, beta in ((2, loading.beta33), (3, loading.beta44), (4, loading.beta55)):
         B[:, dof, dof] = beta * b_cr[:, dof]
     return LoadedHydro(draft=draft, cog=cog, mass_matrix=M, stiffness=C, extra_damping=B, draft_index=(i0, i1, w))
-
-
-def metacentric_heights(db: HydroDatabase, loading: Loading) -> tuple[np.ndarray, np.ndarray]:
-    """Effective GMT and GML [m] (free-surface corrections included) = C44 / (m g), C55 / (m g)."""
-    lh = load(db, loading)
-    mg = loading.mass * db.g
-    return lh.stiffness[:, 3, 3] / mg, lh.stiffness[:, 4, 4] / mg

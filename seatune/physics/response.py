@@ -54,7 +54,10 @@ def excitation(db: HydroDatabase, lh: LoadedHydro) -> np.ndarray:
 
 def motion_raos(db: HydroDatabase, loading: Loading) -> np.ndarray:
     """ξ(ω, β) per unit wave amplitude for every condition: (N, nw, nb, 6) complex."""
-    lh = load(db, loading)
+    return _motion_raos(db, load(db, loading))
+
+
+def _motion_raos(db: HydroDatabase, lh: LoadedHydro) -> np.ndarray:
     H = impedance(db, lh)
     F = excitation(db, lh)
     return np.swapaxes(np.linalg.solve(H, np.swapaxes(F, -1, -2)), -1, -2)
@@ -81,7 +84,7 @@ def motion_raos_at(db: HydroDatabase, loading: Loading, omega: np.ndarray) -> np
 def channel_raos(db: HydroDatabase, loading: Loading, channels: list[Channel]) -> np.ndarray:
     """Channel transfer functions H_j(ω, β): (N, nw, nb, nch) complex."""
     lh = load(db, loading)
-    xi = motion_raos(db, loading)
+    xi = _motion_raos(db, lh)
     t = transfer_vectors(channels, db.omega, lh.draft, db.g)  # (N, nw, 6, nch)
     return np.einsum("nwbd,nwdc->nwbc", xi, t)
 

@@ -6,8 +6,6 @@ import hashlib
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from seatune.errors import UserError
 from seatune.io.vessel_yaml import LOADING_PARAMETERS, VesselSpec, load_vessel
 from seatune.physics.channels import Channel
@@ -113,6 +111,3 @@ def open_vessel(path: str | Path) -> VesselModel:
 def file_hash(path: str | Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
 
-
-def as_array(value) -> np.ndarray:
-    return np.atleast_1d(np.asarray(value, dtype=float))
