@@ -121,3 +121,24 @@ def test_truncated_mcap_is_read_up_to_the_cut(tmp_path, run_dir):
     m = pd.read_parquet(tmp_path / "run" / "motions.parquet")
     hours = (m.time.max() - m.time.min()).total_seconds() / 3600
     assert 2.0 < hours < 4.5
+
+
+def test_identified_roll_natural_frequency_within_2_percent_of_truth(run_dir, sample_model):
+    """Roll ω_n from the RAO peak + SDOF fit over the sample windows vs the truth loading's natural
+    frequency (the physics core's fixed point, itself checked against brentq in test_physics_core)."""
+    from seatune.physics.response import natural_frequencies
+
+    out, path, _ = run_dir
+    res = run_cli("identify", path)
+    assert res.returncode == 0, res.stderr
+    nat = pd.read_parquet(out / "natural_frequencies.parquet")
+    combined = nat[(nat.window_id == "all") & nat.derived.isna()].iloc[0]
+    truth = yaml.safe_load((SAMPLE / "truth.yaml").read_text())["loading"]
+    true_loading = sample_model.loading(**{k: truth[k] for k in ("mass", "zcg", "gmt_fs", "r44", "beta44")})
+    omega_true = natural_frequencies(sample_model.db, true_loading)[0, 1]
+    omega_prior = natural_frequencies(sample_model.db, sample_model.base_loading)[0, 1]
+    assert combined.omega_n == pytest.approx(omega_true, rel=0.02)
+    assert abs(combined.omega_n - omega_true) < 0.2 * abs(omega_prior - omega_true)  # the data, not the prior
+    raos = pd.read_parquet(out / "raos.parquet")
+    assert set(raos.wave_source) == {"hindcast 2-D spectrum"}
+    assert raos.rao_amp.notna().sum() > 500

@@ -9,7 +9,7 @@ import click
 
 from seatune.cli.main import cli, handle_errors
 
-ORDER = ("ingest", "windows", "filter")
+ORDER = ("ingest", "windows", "filter", "identify")
 
 
 def _line(stage: str, summary: dict, seconds: float) -> str:
@@ -23,13 +23,18 @@ def _line(stage: str, summary: dict, seconds: float) -> str:
     if stage == "windows":
         return (f"windows: {summary['accepted']} of {summary['candidates']} candidates accepted, "
                 f"{summary['accepted_minutes']:.0f} min free floating ({seconds:.0f} s)")
-    return (f"filter: {summary['windows']} windows × {summary['channels']} channels, median cutoff "
-            f"{summary['median_cutoff_hz']:.2f} Hz ({seconds:.0f} s)")
+    if stage == "filter":
+        return (f"filter: {summary['windows']} windows × {summary['channels']} channels, median cutoff "
+                f"{summary['median_cutoff_hz']:.2f} Hz ({seconds:.0f} s)")
+    return (f"identify: RAOs of {summary['channels']} channels in {summary['windows']} windows; roll natural "
+            f"frequency {summary['roll_omega_n']:.3f} rad/s (prior model {summary['prior_roll_omega_n']:.3f}) "
+            f"({seconds:.0f} s)")
 
 
 def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = ()) -> None:
     from seatune.io.run_yaml import Run
     from seatune.pipeline.filter import filter_stage
+    from seatune.pipeline.identify import identify_stage
     from seatune.pipeline.ingest import ingest
     from seatune.pipeline.vessel import open_vessel
     from seatune.pipeline.windows import windows_stage
@@ -39,7 +44,8 @@ def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = ()) -> None:
     run.run_dir.mkdir(parents=True, exist_ok=True)
     stages = {"ingest": lambda f: ingest(run, model, echo=click.echo, force=f),
               "windows": lambda f: windows_stage(run, echo=click.echo, force=f),
-              "filter": lambda f: filter_stage(run, model, echo=click.echo, force=f)}
+              "filter": lambda f: filter_stage(run, model, echo=click.echo, force=f),
+              "identify": lambda f: identify_stage(run, model, echo=click.echo, force=f)}
     redo = False
     for stage in ORDER[: ORDER.index(last) + 1]:
         redo = redo or stage in force
@@ -62,3 +68,4 @@ def _command(stage: str, doc: str):
 ingest = _command("ingest", "Logs + hindcast → motions.parquet, waves.parquet.")
 windows = _command("windows", "Free-floating, stationary windows → windows.parquet.")
 filter_ = _command("filter", "Adaptive lowpass cutoff, σ, Tz and Welch spectra per window → window_stats.parquet.")
+identify = _command("identify", "RAOs and natural frequencies → raos.parquet, natural_frequencies.parquet.")
