@@ -14,11 +14,11 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
-# The main job on the embedded default: the sample vessel and sample_logs/ through ingest → windows → filter
-# (later stages extend it to the report).
+# The main job on the embedded default: the sample vessel and sample_logs/ through ingest → windows →
+# filter → identify (later stages extend it to the report).
 run: $(STAMP)
 	$(BIN)/seatune vessel info configs/vessels/sample_osv.yaml
-	$(BIN)/seatune filter configs/runs/sample.yaml
+	$(BIN)/seatune identify configs/runs/sample.yaml
 	@echo "artefacts in runs/sample/"
 
 test: $(STAMP)
