@@ -550,16 +550,29 @@ def welch_spectrum(
         raise ValueError("x must be a finite 1-D record")
     if not (np.isfinite(fs) and fs > 0):
         raise ValueError(f"fs must be a positive sample rate [Hz], got {fs!r}")
+    seg = welch_segments(xa.size, fs, segment_s, overlap, window)
+    f, s_f = sps.welch(xa, fs=fs, window=seg.window, nperseg=seg.nperseg, noverlap=seg.noverlap,
+                       detrend="constant", return_onesided=True, scaling="density")
+    # S(ω) dω = S(f) df with ω = 2πf (DESIGN §3: one-sided, rad/s)
+    return TWO_PI * f, s_f / TWO_PI, seg.dof
+
+
+@dataclass(frozen=True)
+class WelchSegments:
+    nperseg: int
+    noverlap: int
+    window: np.ndarray
+    dof: float  # equivalent degrees of freedom of the averaged spectrum (welch_dof)
+
+
+def welch_segments(n: int, fs: float, segment_s: float, overlap: float, window: str) -> WelchSegments:
+    """Segment length, overlap, window and ν of a Welch average over a record of n samples."""
     if not 0.0 <= overlap < 1.0:
         raise ValueError(f"overlap must be in [0, 1), got {overlap!r}")
     nperseg = int(round(segment_s * fs))
-    if nperseg < 2 or nperseg > xa.size:
-        raise ValueError(f"segment_s={segment_s!r} gives {nperseg} samples per segment; the record has {xa.size}")
+    if nperseg < 2 or nperseg > n:
+        raise ValueError(f"segment_s={segment_s!r} gives {nperseg} samples per segment; the record has {n}")
     noverlap = min(int(round(overlap * nperseg)), nperseg - 1)
     win = sps.get_window(window, nperseg)
-    f, s_f = sps.welch(xa, fs=fs, window=win, nperseg=nperseg, noverlap=noverlap, detrend="constant",
-                       return_onesided=True, scaling="density")
     step = nperseg - noverlap
-    n_seg = (xa.size - noverlap) // step
-    # S(ω) dω = S(f) df with ω = 2πf (DESIGN §3: one-sided, rad/s)
-    return TWO_PI * f, s_f / TWO_PI, welch_dof(n_seg, win, step)
+    return WelchSegments(nperseg, noverlap, win, welch_dof((n - noverlap) // step, win, step))

@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike
 from scipy import signal as sps
 from scipy import special, stats
 
-from seatune.physics.adaptive_filter import welch_dof
+from seatune.physics.adaptive_filter import welch_segments
 
 TWO_PI = 2.0 * np.pi
 
@@ -476,24 +476,16 @@ def h1_estimator(
     ea = np.asarray(eta, dtype=float)
     if xa.ndim != 1 or xa.shape != ea.shape or not (np.all(np.isfinite(xa)) and np.all(np.isfinite(ea))):
         raise ValueError("x and eta must be finite 1-D records of equal length")
-    if not 0.0 <= overlap < 1.0:
-        raise ValueError(f"overlap must be in [0, 1), got {overlap!r}")
-    nperseg = int(round(segment_s * fs))
-    if nperseg < 2 or nperseg > xa.size:
-        raise ValueError(f"segment_s={segment_s!r} gives {nperseg} samples per segment; the record has {xa.size}")
-    noverlap = min(int(round(overlap * nperseg)), nperseg - 1)
-    win = sps.get_window(window, nperseg)
-    kw = dict(fs=fs, window=win, nperseg=nperseg, noverlap=noverlap, detrend="constant")
+    seg = welch_segments(xa.size, fs, segment_s, overlap, window)
+    kw = dict(fs=fs, window=seg.window, nperseg=seg.nperseg, noverlap=seg.noverlap, detrend="constant")
     f, g_ee = sps.welch(ea, **kw)
     _, g_xx = sps.welch(xa, **kw)
     _, g_ex = sps.csd(ea, xa, **kw)  # scipy: G_ηx = E[conj(Η) X] (FFT convention e^{+iωt})
     with np.errstate(divide="ignore", invalid="ignore"):
         h_fft = np.where(g_ee > 0, g_ex / g_ee, np.nan)
         coh = np.where((g_ee > 0) & (g_xx > 0), np.abs(g_ex) ** 2 / (g_ee * g_xx), np.nan)
-    step = nperseg - noverlap
-    n_seg = (xa.size - noverlap) // step
     # DESIGN §3: Re{X e^{−iωt}} convention is the conjugate of numpy's e^{+iωt} one
-    return TWO_PI * f, np.conj(h_fft), np.clip(coh, 0.0, 1.0), welch_dof(n_seg, win, step)
+    return TWO_PI * f, np.conj(h_fft), np.clip(coh, 0.0, 1.0), seg.dof
 
 
 def h1_confidence(
