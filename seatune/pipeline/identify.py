@@ -120,8 +120,7 @@ def derived_roll_parameters(model, prior, combined: dict) -> list[dict]:
 
     db = model.db
     lh = load(db, prior)
-    i0, i1, w = (a[0] for a in lh.draft_index)
-    a44 = (1 - w) * db.added_mass[i0, :, 3, 3] + w * db.added_mass[i1, :, 3, 3]
+    a44 = db.interp("added_mass", lh.draft)[0, :, 3, 3]
     added = lambda om: np.interp(om, db.omega, a44)  # noqa: E731
     mass = float(prior.mass[0])
     gm = float(lh.stiffness[0, 3, 3] / (mass * db.g))
