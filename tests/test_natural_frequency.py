@@ -301,3 +301,10 @@ def test_gm_uncertainty_vs_monte_carlo():
     d = nf.gm_from_roll_u(**means, std_omega4=0.005, std_mass=stds["mass"], std_r44=0.2, std_a44=stds["a44"])
     mc = _mc_std(nf.gm_from_roll, means, stds, 4)
     assert d.std == pytest.approx(mc, rel=0.10)
+
+
+def test_fit_sdof_unweighted_moves_for_tiny_amplitudes():
+    """An admittance in m/N is ~1e-8: the unweighted fit must still converge (tolerances are absolute)."""
+    clean = nf.sdof_amplitude(W_FIT, WN, ZETA, 3e-9)
+    fit = nf.fit_sdof(W_FIT, clean, omega_guess=0.9 * WN)
+    assert fit.omega_n == pytest.approx(WN, rel=1e-6)

@@ -330,3 +330,23 @@ def test_missing_swell_flag():
     assert not quality_flags(w, s_x, wind(w), omega_n=1.2)["resonance_unexcited"]
     est = rao_long_crested(w, s_x, dof, wind(w), omega_n=0.7)
     assert est.low_confidence
+
+
+def test_wave_log_std_matches_a_perturbed_jonswap():
+    """σ of ln|H| from Hs/Tp errors equals ½|Δ ln S| of a JONSWAP actually recomputed with Tp·(1 + ε) and
+    Hs·(1 + ε) (finite differences of the spectra module, not the slope formula)."""
+    from seatune.physics.rao_estimation import wave_log_std
+    from seatune.physics.spectra import jonswap
+
+    omega = np.linspace(0.3, 2.0, 4000)
+    hs, tp, eps = 2.5, 9.0, 1e-5
+    s0 = jonswap(omega, hs, tp, 3.3)
+    d_tp = (np.log(jonswap(omega, hs, tp * (1 + eps), 3.3)) - np.log(s0)) / eps
+    d_hs = (np.log(jonswap(omega, hs * (1 + eps), tp, 3.3)) - np.log(s0)) / eps
+    np.testing.assert_allclose(d_hs, 2.0, rtol=1e-4)
+    inner = slice(5, -5)
+    only_tp = wave_log_std(omega, s0, 0.0, 0.05)
+    # atol: the σa|σb kink at the peak
+    np.testing.assert_allclose(only_tp[inner], 0.5 * np.abs(d_tp[inner]) * 0.05, rtol=1e-3, atol=3e-4)
+    only_hs = wave_log_std(omega, s0, 0.1, 0.0)
+    np.testing.assert_allclose(only_hs, 0.1)

@@ -7,11 +7,12 @@ from __future__ import annotations
 
 import glob
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from seatune.errors import UserError
+from seatune.io.vessel_yaml import LOADING_PARAMETERS
 from seatune.io.yaml_config import PositiveFloat, Strict, read_yaml, validate
 from seatune.pipeline.windows import WindowSettings
 
@@ -35,9 +36,18 @@ class TopicsSpec(Strict):
     odometry: str | None = None
 
 
+class HindcastUncertainty(Strict):
+    """1-σ errors of the hindcast at the vessel (Han A5 Table 4.1 defaults); used by identify and tune."""
+
+    hs_rel_std: Annotated[float, Field(ge=0)] = 0.10  # relative std of Hs
+    tp_std_s: Annotated[float, Field(ge=0)] = 0.5  # std of Tp [s]
+    dir_std_deg: Annotated[float, Field(ge=0)] = 5.0  # std of the mean direction [deg]
+
+
 class HindcastSource(Strict):
     path: str
     format: Literal["auto", "era5", "ww3", "csv"] = "auto"
+    uncertainty: HindcastUncertainty = HindcastUncertainty()
 
 
 class IngestSettings(Strict):
@@ -56,6 +66,24 @@ class FilterSettings(Strict):
     channels: list[str] | None = None  # default: every vessel channel present in the motion table
 
 
+class IdentifySettings(Strict):
+    band_fraction: Annotated[float, Field(gt=0, lt=1)] = 0.05  # energetic band: S_ζζ ≥ fraction·max (A7 §4.1)
+    confidence: Annotated[float, Field(gt=0, lt=1)] = 0.95
+    search_range: Annotated[float, Field(gt=0, lt=1)] = 0.3  # natural-frequency search: prior ω_n·(1 ± range)
+    heading_sector_deg: Annotated[float, Field(gt=0, le=180)] = 30.0  # aggregation sectors of the wave direction β
+    hs_bin_m: PositiveFloat = 1.0  # aggregation Hs bins
+    low_frequency_share: Annotated[float, Field(gt=0, lt=1)] = 0.25  # missing-swell flag threshold
+    known: dict[str, float] = {}  # loading values known on board (loading computer), used for derived parameters
+
+    @field_validator("known")
+    @classmethod
+    def _known_parameters(cls, v):
+        for name in v:
+            if name not in LOADING_PARAMETERS:
+                raise ValueError(f"unknown loading parameter '{name}' (one of {', '.join(LOADING_PARAMETERS)})")
+        return v
+
+
 class RunSpec(Strict):
     name: str
     run_dir: str
@@ -67,6 +95,7 @@ class RunSpec(Strict):
     ingest: IngestSettings = IngestSettings()
     windows: WindowSettings = WindowSettings()
     filter: FilterSettings = FilterSettings()
+    identify: IdentifySettings = IdentifySettings()
 
 
 class Run:

@@ -363,7 +363,7 @@ def fit_sdof(
         def resid(p):
             return (np.log(sdof_amplitude(x, p[0], p[1], p[2], order)) - ly) / sig
     else:
-        ww = w[mask]
+        ww = w[mask] / float(y.max())  # residuals of order 1 whatever the amplitude's unit (tolerances are absolute)
 
         def resid(p):
             return ww * (sdof_amplitude(x, p[0], p[1], p[2], order) - y)
@@ -395,7 +395,7 @@ def fit_sdof(
         omega_n_ci=ci[0],
         zeta_ci=ci[1],
         gain_ci=ci[2],
-        residual=float(np.sqrt(s2)),
+        residual=float(np.sqrt(s2)) * (1.0 if use_ci else float(y.max())),
         cov=cov,
         n_points=n,
         mask=mask,

@@ -44,6 +44,7 @@ __all__ = [
     "h1_confidence",
     "h1_estimator",
     "quality_flags",
+    "wave_log_std",
     "rao_long_crested",
     "rao_short_crested",
 ]
@@ -118,6 +119,21 @@ def chi2_interval(S: ArrayLike, dof: ArrayLike, level: float = 0.95) -> tuple[np
     return low, high
 
 
+def wave_log_std(omega: ArrayLike, S_wave: ArrayLike, hs_rel_std: float, tp_rel_std: float) -> np.ndarray:
+    """Standard deviation of ln|Ĥ| = ½ ln S_xx − ½ ln S_ζζ caused by errors of the hindcast's Hs and Tp.
+
+    A sea state scales as S(ω) = Hs² Tp f(ω Tp), so ∂ln S/∂ln Hs = 2 and ∂ln S/∂ln Tp = 1 + ∂ln S/∂ln ω
+    (evaluated on the spectrum itself, whatever its shape). Hence, to first order,
+    σ_ln|H| = ½ √((2 σ_Hs/Hs)² + ((1 + ∂ln S/∂ln ω) σ_Tp/Tp)²). The error is common to all frequencies of a
+    window (it shifts the whole estimate), unlike the χ² sampling error.
+    """
+    w, arrs = _check_1d(omega, S_wave=S_wave)
+    s = arrs["S_wave"]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slope = np.gradient(np.log(np.where(s > 0, s, np.nan)), np.log(w))
+    return 0.5 * np.sqrt((2.0 * hs_rel_std) ** 2 + ((1.0 + slope) * tp_rel_std) ** 2)
+
+
 def _log_amplitude_moments(dof: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Bias and variance of ln|Ĥ| = ½ ln Ŝ_xx − ½ ln S_ζζ when ν Ŝ_xx/S_xx ~ χ²_ν.
 
@@ -165,6 +181,7 @@ class RaoEstimate:
     method: str
     scale: np.ndarray | None = None
     flags: dict = field(default_factory=dict)
+    wave_log_std: np.ndarray | None = None  # σ of ln|H| from the wave spectrum's errors (common to the window)
 
     @property
     def low_confidence(self) -> bool:
@@ -184,13 +201,22 @@ def _check_1d(omega: ArrayLike, **arrays: ArrayLike) -> tuple[np.ndarray, dict[s
     return w, out
 
 
-def _amplitude_from_ratio(S_resp: np.ndarray, denom: np.ndarray, dof, level: float, mask: np.ndarray):
-    """|H| = √(S_xx/denom) with the χ² interval of S_xx mapped through the (monotone) square root."""
+def _amplitude_from_ratio(S_resp: np.ndarray, denom: np.ndarray, dof, level: float, mask: np.ndarray,
+                          log_std_wave: np.ndarray | None = None):
+    """|H| = √(S_xx/denom) with the χ² interval of S_xx mapped through the (monotone) square root.
+
+    With `log_std_wave`, each half-width of the interval in ln|H| is combined root-sum-square with
+    z·σ_wave (the χ² interval is asymmetric in ln|H|, so lower and upper halves are widened separately).
+    """
     lo_s, hi_s = chi2_interval(S_resp, dof, level)
     with np.errstate(divide="ignore", invalid="ignore"):
         amp = np.sqrt(S_resp / denom)
         low = np.sqrt(lo_s / denom)
         high = np.sqrt(hi_s / denom)
+        if log_std_wave is not None:
+            zw = stats.norm.ppf(0.5 + level / 2.0) * np.asarray(log_std_wave, dtype=float)
+            low = amp * np.exp(-np.hypot(np.log(amp / low), zw))
+            high = amp * np.exp(np.hypot(np.log(high / amp), zw))
     nan = np.full_like(amp, np.nan)
     return np.where(mask, amp, nan), np.where(mask, low, nan), np.where(mask, high, nan)
 
@@ -276,13 +302,17 @@ def rao_long_crested(
     *,
     level: float = 0.95,
     omega_n: float | None = None,
+    low_frequency_share: float = 0.25,
+    wave_log_std: ArrayLike | None = None,
 ) -> RaoEstimate:
     """Long-crested RAO amplitude |H(ω)| = √(S_xx(ω)/S_ζζ(ω)) inside the energetic band.
 
-    The wave spectrum S_ζζ is treated as **known and exact** (hindcast/nowcast/probe taken at face
-    value); the interval reflects only the χ² sampling error of the measured S_xx with ν = `dof_resp`:
+    Without `wave_log_std` the wave spectrum S_ζζ is treated as **known and exact** (probe in a basin);
+    the interval reflects only the χ² sampling error of the measured S_xx with ν = `dof_resp`:
     [√(S_low/S_ζζ), √(S_high/S_ζζ)] with (S_low, S_high) from :func:`chi2_interval` (the square root is
-    monotone, so the coverage is exact). Outside the band (S_ζζ < fraction·max) everything is NaN.
+    monotone, so the coverage is exact). With `wave_log_std` (σ of ln|H| from the hindcast's errors, see
+    :func:`wave_log_std`) the interval is widened by it. Outside the band (S_ζζ < fraction·max)
+    everything is NaN.
 
     Parameters
     ----------
@@ -310,9 +340,10 @@ def rao_long_crested(
     s_x, s_z = arrs["S_resp"], arrs["S_wave"]
     mask = energetic_band(w, s_z, fraction)
     # seed 002 eq. 2.8: S_r = |RAO|² S_ζ  ⇒  |RAO| = √(S_r/S_ζ)
-    amp, low, high = _amplitude_from_ratio(s_x, s_z, dof_resp, level, mask)
-    flags = quality_flags(w, s_x, s_z, omega_n, fraction=fraction)
-    return RaoEstimate(w, amp, low, high, mask, dof_resp, level, "long_crested", None, flags)
+    amp, low, high = _amplitude_from_ratio(s_x, s_z, dof_resp, level, mask, wave_log_std)
+    flags = quality_flags(w, s_x, s_z, omega_n, fraction=fraction, low_frequency_share=low_frequency_share)
+    wls = None if wave_log_std is None else np.asarray(wave_log_std, dtype=float)
+    return RaoEstimate(w, amp, low, high, mask, dof_resp, level, "long_crested", None, flags, wls)
 
 
 def rao_short_crested(
@@ -547,7 +578,8 @@ def aggregate(
     (ν Ŝ/S ~ χ²_ν): bias b = ½(ψ(ν/2) − ln(ν/2)), variance v = ¼ψ'(ν/2). The group value is
     exp(Σ (ln|Ĥ_i| − b_i)/v_i / Σ 1/v_i) with the normal interval exp(mean ± z √(1/Σ 1/v_i)). Windows
     with ``estimate.low_confidence`` are dropped; NaN (out-of-band) points do not contribute. Only
-    the response-spectrum sampling error is propagated (the wave spectra are taken as exact).
+    the response-spectrum sampling error is propagated, plus the wave spectrum's error when the estimate
+    carries ``wave_log_std`` (independent between windows: each has its own hindcast error).
 
     Parameters
     ----------
@@ -589,6 +621,8 @@ def aggregate(
         cnt = np.zeros(omega.size, dtype=int)
         for e in members:
             bias, var = _log_amplitude_moments(np.broadcast_to(np.asarray(e.dof, dtype=float), omega.shape))
+            if e.wave_log_std is not None:
+                var = var + np.nan_to_num(e.wave_log_std, nan=np.inf) ** 2
             ok = np.isfinite(e.amplitude) & (e.amplitude > 0)
             y = np.where(ok, np.log(np.where(ok, e.amplitude, 1.0)) - bias, 0.0)
             wgt = np.where(ok, 1.0 / var, 0.0)

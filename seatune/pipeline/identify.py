@@ -3,21 +3,58 @@ spectrum (de Jong ch. 5–6; Han A7's energetic band), independent of any tuning
 
 Per accepted window: the wave spectrum at the window (the hindcast's 2-D spectrum when it has one,
 otherwise JONSWAP + cos-2s from the bulk parameters), the effective RAO |H_eff(ω)| = √(S_xx/S_ζζ) of every
-channel in the energetic band with its χ² interval, the prior model's effective RAO in the same
-directional sea for comparison, and quality flags. Roll's natural frequency comes from the RAO peak near
-the prior model's value refined by a single-degree-of-freedom fit, combined over windows.
+channel in the energetic band with its interval (χ² sampling error of S_xx and the hindcast's Hs/Tp error),
+the prior model's effective RAO in the same directional sea, and quality flags (a window whose motions carry
+energy below the wave band — a hindcast that misses the swell — is low-confidence). Windows are then
+aggregated per sector of wave direction β × Hs bin. Natural frequencies of heave, roll and pitch come from the
+RAO peak near the prior model's value refined by a single-degree-of-freedom fit (roll also from its response
+spectrum peak), combined over windows, with the loading parameters they imply.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pandas as pd
 
-RAO_UNITS = {"window_id": "", "channel": "", "omega": "rad/s", "rao_amp": "channel unit/m", "ci_low": "channel unit/m",
-             "ci_high": "channel unit/m", "model_prior": "channel unit/m", "low_confidence": "", "heading_deg": "deg",
-             "hs": "m", "wave_source": ""}
+RAO_UNITS = {"scope": "", "window_id": "", "channel": "", "omega": "rad/s", "rao_amp": "channel unit/m",
+             "ci_low": "channel unit/m", "ci_high": "channel unit/m", "model_prior": "channel unit/m",
+             "low_confidence": "", "reason": "", "beta_deg": "deg", "sector_deg": "deg", "hs": "m",
+             "hs_bin_m": "m", "n_windows": "", "wave_source": ""}
 NF_UNITS = {"dof": "", "method": "", "window_id": "", "omega_n": "rad/s", "ci_low": "rad/s", "ci_high": "rad/s",
             "zeta": "", "model_prior": "rad/s", "derived": "", "derived_value": "", "derived_std": ""}
+DOF_INDEX = {"Heave": 2, "Roll": 3, "Pitch": 4}
+
+
+@dataclass(frozen=True)
+class ModeChannel:
+    """The measured channel that shows a rigid-body mode, and how to turn its RAO into a displacement RAO."""
+
+    dof: str
+    channel: str
+    order: int  # |H_disp| = |H_channel| / ω^order
+
+
+def mode_channels(model, available) -> list[ModeChannel]:
+    """Heave from a vertical displacement / velocity / acceleration channel (nearest the origin), roll and
+    pitch from their angle or rate channels."""
+    order = {"displacement": 0, "angle": 0, "velocity": 1, "rate": 1, "acceleration": 2, "specific_force": 2}
+    want = {"Heave": ("z", ("displacement", "velocity", "acceleration", "specific_force")),
+            "Roll": ("x", ("angle", "rate")), "Pitch": ("y", ("angle", "rate"))}
+    out = []
+    for dof, (axis, kinds) in want.items():
+        best = None
+        for ch in model.channels:
+            if ch.name not in available or ch.axis != axis or ch.kind not in kinds:
+                continue
+            dist = 0.0 if ch.point is None else float(np.hypot(ch.point[0], ch.point[1]))
+            key = (kinds.index(ch.kind), dist)
+            if best is None or key < best[0]:
+                best = (key, ch)
+        if best is not None:
+            out.append(ModeChannel(dof, best[1].name, order[best[1].kind]))
+    return out
 
 
 def window_wave_spectrum(hc, row, lat: float, lon: float, omega: np.ndarray):
@@ -41,101 +78,312 @@ def window_wave_spectrum(hc, row, lat: float, lon: float, omega: np.ndarray):
     return part.spectrum(omega)[:, None] * spread[None, :], dirs, "JONSWAP + cos-2s from bulk"
 
 
-def effective_model_rao(model, loading, channel_names, omega, dirs_from, S2d, heading_deg) -> np.ndarray:
-    """√(Σ_D |H(ω, β_D)|² W(ω, D)) of the model: what √(S_xx/S_ζζ) estimates in that directional sea."""
-    from seatune.physics.interp import interp_axis0
-    from seatune.physics.response import channel_raos
+def mean_wave_direction(S2d: np.ndarray, dirs_from: np.ndarray, heading_deg: float) -> float:
+    """Energy-weighted circular mean of the model wave direction β [deg] (DESIGN §3: β = ψ − D − 180°)."""
+    beta = np.radians(heading_deg - dirs_from - 180.0)
+    e = S2d.sum(axis=0)
+    return float(np.degrees(np.arctan2((e * np.sin(beta)).sum(), (e * np.cos(beta)).sum())) % 360.0)
 
-    db = model.db
-    chans = [model.channel(c) for c in channel_names]
-    power = np.abs(channel_raos(db, loading, chans)[0]) ** 2  # (nw, nb, nch)
-    power = interp_axis0(db.omega, power, omega, complex_blend=False)  # (n, nb, nch)
-    beta = np.mod(heading_deg - dirs_from - 180.0, 360.0)  # per source direction
+
+def power_in_sea(db, power: np.ndarray, omega: np.ndarray, dirs_from: np.ndarray, heading_deg: float) -> np.ndarray:
+    """A database quantity |·|² (nw, nb, k) at `omega` and at the β of each source direction D: (n, nD, k)."""
+    from seatune.physics.interp import interp_axis0
+
+    power = interp_axis0(db.omega, power, omega, complex_blend=False)
+    beta = np.mod(heading_deg - dirs_from - 180.0, 360.0)  # DESIGN §3
     grid = np.degrees(db.wave_direction)
     ext = np.r_[grid, 360.0]
     idx = np.clip(np.searchsorted(ext, beta, side="right") - 1, 0, grid.size - 1)
     f = (beta - ext[idx]) / (ext[idx + 1] - ext[idx])
-    p = (1 - f)[None, :, None] * power[:, idx, :] + f[None, :, None] * power[:, (idx + 1) % grid.size, :]
+    return (1 - f)[None, :, None] * power[:, idx, :] + f[None, :, None] * power[:, (idx + 1) % grid.size, :]
+
+
+def effective_model_rao(model, loading, channel_names, omega, dirs_from, S2d, heading_deg) -> np.ndarray:
+    """√(Σ_D |H(ω, β_D)|² W(ω, D)) of the model: what √(S_xx/S_ζζ) estimates in that directional sea."""
+    from seatune.physics.response import channel_raos
+
+    chans = [model.channel(c) for c in channel_names]
+    power = np.abs(channel_raos(model.db, loading, chans)[0]) ** 2  # (nw, nb, nch)
+    p = power_in_sea(model.db, power, omega, dirs_from, heading_deg)
     weights = S2d / np.maximum(S2d.sum(axis=1, keepdims=True), 1e-300)
     return np.sqrt(np.einsum("wdc,wd->cw", p, weights))
 
 
-def identify_window(model, prior, row, wave, dirs, source, spectra: pd.DataFrame) -> list[pd.DataFrame]:
-    from seatune.physics.rao_estimation import rao_long_crested
+def excitation_spectra(model, draft: float, omega, dirs_from, S2d, heading_deg) -> np.ndarray:
+    """S_FF,d(ω) = Σ_D |F_d(ω, β_D)|² S(ω, D) ΔD of the heave, roll and pitch excitation: (3, n).
 
-    out = []
+    It depends on the hull and draft only, not on the uncertain mass distribution, so √(S_xx/S_FF) of a mode
+    is the mechanical admittance 1/|C − ω²(M + A) − iωB| whatever the directional spreading (uncoupled),
+    whose peak is the natural frequency.
+    """
+    db = model.db
+    force = db.interp("excitation_force", np.atleast_1d(draft))[0][:, :, 2:5]  # (nw, nb, 3)
+    p = power_in_sea(db, np.abs(force) ** 2, omega, dirs_from, heading_deg)
+    dd = np.radians(np.diff(np.r_[dirs_from, dirs_from[0] + 360.0]).mean())
+    return np.einsum("wdk,wd->kw", p, S2d) * dd
+
+
+def heave_at_origin(motions: pd.DataFrame, imu_point) -> np.ndarray:
+    """Vertical acceleration of the body origin from the IMU: f_z + x θ̈ − y φ̈ (rigid body, small angles,
+    the constant g removed with the mean): z_p = ξ3 + y ξ4 − x ξ5 (DESIGN §3 sign convention)."""
+    dt = np.median(np.diff(motions["time"].to_numpy()).astype("timedelta64[ns]").astype(float)) * 1e-9
+    x, y = imu_point[0], imu_point[1]
+    acc = motions["imu_fz"].to_numpy() + x * np.gradient(motions["pitch_rate"].to_numpy(), dt)
+    return acc - y * np.gradient(motions["roll_rate"].to_numpy(), dt)
+
+
+def _reason(est) -> str:
+    f = est.flags
+    if f.get("missing_low_frequency_energy"):
+        return (f"motions carry {100 * f['response_share_below_band']:.0f} % of their variance below the wave band "
+                f"(ω < {f['band_low']:.2f} rad/s): hindcast misses low-frequency energy (swell?)")
+    return "no energetic band" if est.low_confidence else ""
+
+
+def identify_window(model, prior, row, wave, dirs, source, spectra: pd.DataFrame, settings, uncertainty):
+    """Per-channel effective RAO estimates of one window: (RaoEstimate by channel, rows for raos.parquet)."""
+    from seatune.physics.rao_estimation import rao_long_crested, wave_log_std
+
     names = list(spectra["channel"].unique())
     omega = spectra[spectra["channel"] == names[0]]["omega"].to_numpy()
     s_wave = wave.sum(axis=1) * np.radians(np.diff(np.r_[dirs, dirs[0] + 360.0]).mean())
     h_model = effective_model_rao(model, prior, names, omega, dirs, wave, row.heading_deg)
+    wls = wave_log_std(omega, np.maximum(s_wave, 1e-300), uncertainty.hs_rel_std, uncertainty.tp_std_s / row.tp)
+    beta = mean_wave_direction(wave, dirs, row.heading_deg)
+    estimates, rows = {}, []
     for j, name in enumerate(names):
         part = spectra[spectra["channel"] == name]
-        est = rao_long_crested(omega, part["S"].to_numpy(), float(part["dof"].iloc[0]), s_wave)
-        out.append(pd.DataFrame({
-            "window_id": int(row.window_id), "channel": name, "omega": omega, "rao_amp": est.amplitude,
-            "ci_low": est.low, "ci_high": est.high, "model_prior": h_model[j],
-            "low_confidence": bool(est.low_confidence), "heading_deg": row.heading_deg, "hs": row.hs,
-            "wave_source": source,
-        }))
+        s_resp = part["S"].to_numpy()
+        dof = float(part["dof"].iloc[0])
+        est = rao_long_crested(omega, s_resp, dof, s_wave, settings.band_fraction, level=settings.confidence,
+                               low_frequency_share=settings.low_frequency_share, wave_log_std=wls)
+        sampling = rao_long_crested(omega, s_resp, dof, s_wave, settings.band_fraction, level=settings.confidence)
+        estimates[name] = (est, sampling)
+        rows.append(pd.DataFrame({
+            "scope": "window", "window_id": str(row.window_id), "channel": name, "omega": omega,
+            "rao_amp": est.amplitude, "ci_low": est.low, "ci_high": est.high, "model_prior": h_model[j],
+            "low_confidence": bool(est.low_confidence), "reason": _reason(est), "beta_deg": beta,
+            "sector_deg": np.nan, "hs": row.hs, "hs_bin_m": np.nan, "n_windows": 1, "wave_source": source}))
+    # the hindcast is common to every channel: when most channels see energy it lacks, the window is suspect
+    flagged = [e for e, _ in estimates.values() if e.low_confidence]
+    window_flag = len(flagged) >= 0.5 * len(estimates)
+    if window_flag:
+        worst = max(flagged, key=lambda e: e.flags.get("response_share_below_band", 0.0))
+        for r in rows:
+            r["low_confidence"] = True
+            r["reason"] = f"{len(flagged)} of {len(estimates)} channels: {_reason(worst)}"
+    return estimates, rows, beta, window_flag
+
+
+def sector_of(beta_deg: float, width: float) -> float:
+    """Centre of the β sector [deg]; sectors are centred on multiples of `width` (0 = following seas)."""
+    return float((np.round(beta_deg / width) * width) % 360.0)
+
+
+def aggregate_rows(per_window: list[dict], raos: pd.DataFrame, settings) -> list[pd.DataFrame]:
+    """Windows combined per (β sector, Hs bin) and channel by inverse variance of ln|H| (003 thesis);
+    low-confidence windows are left out."""
+    from seatune.physics.rao_estimation import aggregate
+
+    out = []
+    per_window = [w for w in per_window if not w["low_confidence"]]
+    channels = per_window[0]["estimates"].keys() if per_window else []
+    for name in channels:
+        ests = [w["estimates"][name][0] for w in per_window]
+        groups = [(w["sector"], w["hs_bin"]) for w in per_window]
+        agg = aggregate(ests, groups, level=settings.confidence)
+        for (sector, hs_bin), part in agg.groupby("group", sort=False):
+            members = [str(w["window_id"]) for w, e in zip(per_window, ests, strict=True)
+                       if (w["sector"], w["hs_bin"]) == (sector, hs_bin) and not e.low_confidence]
+            prior = raos[(raos["channel"] == name) & raos["window_id"].isin(members)]
+            model_prior = np.exp(np.log(prior.pivot(index="omega", columns="window_id", values="model_prior"))
+                                 .mean(axis=1)).reindex(part["omega"].to_numpy()).to_numpy()
+            out.append(pd.DataFrame({
+                "scope": "aggregate", "window_id": "+".join(members), "channel": name,
+                "omega": part["omega"].to_numpy(), "rao_amp": part["amplitude"].to_numpy(),
+                "ci_low": part["low"].to_numpy(), "ci_high": part["high"].to_numpy(), "model_prior": model_prior,
+                "low_confidence": False, "reason": "", "beta_deg": np.nan, "sector_deg": sector,
+                "hs": np.nan, "hs_bin_m": hs_bin, "n_windows": part["n_windows"].to_numpy(),
+                "wave_source": ""}))
     return out
 
 
-def roll_natural_frequency(raos: pd.DataFrame, prior_omega: float, channel: str = "roll") -> list[dict]:
-    """RAO peak near the prior (±30 %), refined by an SDOF fit with its CI (de Jong ch. 6), per window and
-    combined by inverse variance."""
+def _combine(rows: list[dict], dof: str, method: str, prior_omega: float) -> dict | None:
+    """One value over windows (window_id 'all'). With three or more windows, the median: a window's estimate
+    has heavy-tailed errors its interval cannot show (the hindcast's spectral shape at the resonance, heave-pitch
+    coupling in quartering seas), and the median ignores one such outlier where the inverse-variance mean
+    follows it. The interval is the inverse-variance one, widened by the Birge ratio when the windows disagree
+    more than their intervals allow, and by √(π/2) for the median's efficiency."""
+    if not rows:
+        return None
+    std = np.array([max((r["ci_high"] - r["ci_low"]) / 3.92, 1e-9) for r in rows])
+    w = 1.0 / std**2
+    om = np.array([r["omega_n"] for r in rows])
+    mean = float((w * om).sum() / w.sum())
+    sd = float(1.0 / np.sqrt(w.sum()))
+    if len(rows) > 1:
+        sd *= max(1.0, float(np.sqrt((w * (om - mean) ** 2).sum() / (len(rows) - 1))))
+    if len(rows) >= 3:
+        mean, sd = float(np.median(om)), sd * np.sqrt(np.pi / 2)
+    zeta = [r["zeta"] for r in rows if np.isfinite(r["zeta"])]
+    return {"dof": dof, "method": method, "window_id": "all", "omega_n": mean, "ci_low": mean - 1.96 * sd,
+            "ci_high": mean + 1.96 * sd, "zeta": float(np.mean(zeta)) if zeta else np.nan,
+            "model_prior": prior_omega}
+
+
+def mode_spectra(model, modes, spectra_w: pd.DataFrame, motions_w: pd.DataFrame | None, segment_s: float):
+    """Displacement spectra S_xx,d(ω) [unit²·s/rad] of heave (at the body origin), roll and pitch in one window,
+    with their degrees of freedom: {dof: (omega, S, ν)}."""
+    from seatune.physics.adaptive_filter import welch_spectrum
+
+    out = {}
+    for mode in modes:
+        ch = model.channel(mode.channel)
+        if mode.dof == "Heave" and ch.kind == "specific_force" and motions_w is not None and ch.point is not None:
+            omega, S, nu = welch_spectrum(heave_at_origin(motions_w, ch.point), 1.0 / _dt(motions_w),
+                                          segment_s=segment_s)
+            keep = omega > 0
+            out[mode.dof] = (omega[keep], S[keep] / omega[keep] ** 4, nu)
+            continue
+        part = spectra_w[spectra_w["channel"] == mode.channel]
+        omega = part["omega"].to_numpy()
+        out[mode.dof] = (omega, part["S"].to_numpy() / omega ** (2 * mode.order), float(part["dof"].iloc[0]))
+    return out
+
+
+def _dt(motions: pd.DataFrame) -> float:
+    return float(np.median(np.diff(motions["time"].to_numpy()).astype("timedelta64[ns]").astype(float)) * 1e-9)
+
+
+def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str, float], settings) -> list[dict]:
+    """Per window whose wave energy reaches the resonance: the peak of the mechanical admittance
+    √(S_xx/S_FF) in prior ω_n·(1 ± range) refined by an SDOF fit with its CI (de Jong §5.6.2 and ch. 6, with the
+    model's excitation in place of the wave spectrum so that the excitation's own frequency dependence does not
+    move the peak); roll also from its response-spectrum peak. Combined over windows by inverse variance."""
+    from seatune.physics.natural_frequency import spectrum_peak
+    from seatune.physics.rao_estimation import chi2_interval, energetic_band
+
+    out = []
+    rng = settings.search_range
+    dof_row = {"Heave": 0, "Roll": 1, "Pitch": 2}
+    for dof, prior in prior_omega.items():
+        fits, peaks = [], []
+        for w in per_window:
+            if dof not in w["modes"] or w["low_confidence"]:
+                continue
+            omega, S, nu = w["modes"][dof]
+            s_wave = np.interp(omega, w["omega"], w["s_wave"], left=0, right=0)
+            band = energetic_band(omega, s_wave, settings.band_fraction)
+            if not band.any() or not (omega[band].min() <= prior <= omega[band].max()):
+                continue  # the waves do not reach this resonance
+            s_ff = excitation_spectra(model, w["draft"], omega, w["dirs"], _wave_on(w, omega), w["heading"])
+            s_ff = s_ff[dof_row[dof]]
+            ok = band & (s_ff > 1e-12 * s_ff.max()) & (S > 0)
+            lo_s, hi_s = chi2_interval(S, nu, settings.confidence)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                amp, lo, hi = np.sqrt(S / s_ff), np.sqrt(lo_s / s_ff), np.sqrt(hi_s / s_ff)
+            if ok.sum() >= 5:
+                row = _fit_mode(omega[ok], amp[ok], lo[ok], hi[ok], s_wave[ok], prior, rng, w["tp_rel_std"])
+                if row is not None:
+                    fits.append({"dof": dof, "method": "admittance_peak_sdof", "window_id": w["window_id"],
+                                 **row, "model_prior": prior})
+            if dof == "Roll":
+                pk = spectrum_peak(omega, S, (prior * (1 - rng), prior * (1 + rng)), "gaussian")
+                if pk.index >= 0:
+                    half = 0.5 * float(np.diff(omega).mean())  # grid resolution
+                    peaks.append({"dof": dof, "method": "response_spectrum_peak", "window_id": w["window_id"],
+                                  "omega_n": pk.omega, "ci_low": pk.omega - half, "ci_high": pk.omega + half,
+                                  "zeta": np.nan, "model_prior": prior})
+        for rows, method in ((fits, "admittance_peak_sdof"), (peaks, "response_spectrum_peak")):
+            combined = _combine(rows, dof, method, prior)
+            out += rows + ([combined] if combined else [])
+    return out
+
+
+def _fit_mode(omega, amp, lo, hi, s_wave, prior: float, rng: float, tp_rel_std: float) -> dict | None:
+    """SDOF fit of an admittance near its peak. The interval adds, in quadrature, how far ω_n moves when the
+    hindcast's Tp is off by ±1σ: that tilts the spectrum by exp(±(1 + ∂ln S/∂ln ω) σ_Tp/Tp) (see
+    rao_estimation.wave_log_std) and shifts the peak — an error the χ² interval cannot see."""
     from seatune.physics.natural_frequency import fit_sdof, peak_in_range
 
-    rows = []
-    for wid, part in raos[raos["channel"] == channel].groupby("window_id"):
-        ok = np.isfinite(part["rao_amp"].to_numpy())
-        if ok.sum() < 5:
-            continue
-        om, amp = part["omega"].to_numpy()[ok], part["rao_amp"].to_numpy()[ok]
-        peak, k = peak_in_range(om, amp, prior_omega)
+    def fit(factor):
+        peak, k = peak_in_range(omega, amp * factor, prior, rng)
         if k < 0:
-            continue
+            return None
         try:
-            fit = fit_sdof(om, amp, part["ci_low"].to_numpy()[ok], part["ci_high"].to_numpy()[ok], omega_guess=peak)
+            f = fit_sdof(omega, amp * factor, lo * factor, hi * factor, omega_guess=peak, rel_range=rng)
         except (ValueError, RuntimeError):
-            continue
-        rows.append({"dof": "Roll", "method": "rao_peak_sdof", "window_id": str(wid), "omega_n": fit.omega_n,
-                     "ci_low": fit.omega_n_ci[0], "ci_high": fit.omega_n_ci[1], "zeta": fit.zeta,
-                     "model_prior": prior_omega})
-    if rows:
-        w = np.array([1.0 / max((r["ci_high"] - r["ci_low"]) / 3.92, 1e-9) ** 2 for r in rows])
-        om = np.array([r["omega_n"] for r in rows])
-        mean = float((w * om).sum() / w.sum())
-        std = float(1.0 / np.sqrt(w.sum()))
-        rows.append({"dof": "Roll", "method": "rao_peak_sdof", "window_id": "all", "omega_n": mean,
-                     "ci_low": mean - 1.96 * std, "ci_high": mean + 1.96 * std,
-                     "zeta": float(np.mean([r["zeta"] for r in rows])), "model_prior": prior_omega})
-    return rows
+            return None
+        return f if abs(f.omega_n / prior - 1) <= rng and f.zeta > 1e-3 else None
+
+    best = fit(1.0)
+    if best is None:
+        return None
+    tilt = 0.5 * (1.0 + np.gradient(np.log(s_wave), np.log(omega))) * tp_rel_std  # on ln|admittance|
+    shifts = [abs(f.omega_n - best.omega_n) if f is not None else np.inf
+              for f in (fit(np.exp(tilt)), fit(np.exp(-tilt)))]
+    shift = max(shifts)
+    if not np.isfinite(shift):
+        return None
+    half = np.hypot(0.5 * (best.omega_n_ci[1] - best.omega_n_ci[0]), 1.96 * shift)
+    return {"omega_n": best.omega_n, "ci_low": best.omega_n - half, "ci_high": best.omega_n + half,
+            "zeta": best.zeta}
 
 
-def derived_roll_parameters(model, prior, combined: dict) -> list[dict]:
-    """r44 from ω4 with the prior's mass and GM, and GM from ω4 with the prior's r44 (de Jong eq. 6.4 as
-    corrected in spec/seed_002.md), first-order uncertainty from the ω4 interval."""
+def _wave_on(w: dict, omega: np.ndarray) -> np.ndarray:
+    """The window's directional wave spectrum on another frequency grid."""
+    if np.array_equal(omega, w["omega"]):
+        return w["wave"]
+    return np.stack([np.interp(omega, w["omega"], w["wave"][:, k], left=0, right=0)
+                     for k in range(w["wave"].shape[1])], axis=1)
+
+
+def derived_parameters(model, known_loading, nat: list[dict]) -> list[dict]:
+    """Loading parameters implied by the combined natural frequencies (de Jong ch. 6, with the corrected
+    roll formula of spec/seed_002.md): displacement from ω3; r44 from ω4 with the known GM; GM from ω4 with
+    the known r44. "Known" = the run's `identify.known` values over the vessel YAML's loading."""
     from seatune.physics.loading import load
-    from seatune.physics.natural_frequency import gm_from_roll_u, r44_from_roll_u
+    from seatune.physics.natural_frequency import displacement_from_heave_u, gm_from_roll_u, r44_from_roll_u
 
     db = model.db
-    lh = load(db, prior)
-    a44 = db.interp("added_mass", lh.draft)[0, :, 3, 3]
-    added = lambda om: np.interp(om, db.omega, a44)  # noqa: E731
-    mass = float(prior.mass[0])
+    lh = load(db, known_loading)
+    mass = float(known_loading.mass[0])
     gm = float(lh.stiffness[0, 3, 3] / (mass * db.g))
-    om, std = combined["omega_n"], (combined["ci_high"] - combined["ci_low"]) / 3.92
-    base = {k: combined[k] for k in ("dof", "method", "window_id", "omega_n", "ci_low", "ci_high", "zeta",
-                                     "model_prior")}
+    r44 = float(known_loading.r44[0])
+
+    def added(dof: int, draft):
+        a = db.interp("added_mass", np.atleast_1d(draft))[0, :, dof, dof]
+        return lambda om: np.interp(om, db.omega, a)
+
+    best = {r["dof"]: r for r in nat if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof"}
     out = []
-    try:
-        r = r44_from_roll_u(om, mass, gm, added, std_omega4=std, g=db.g)
-        out.append({**base, "derived": "r44 [m] (prior mass and GM)", "derived_value": r.value, "derived_std": r.std})
-    except ValueError:
-        pass
-    g = gm_from_roll_u(om, mass, float(prior.r44[0]), added, std_omega4=std, g=db.g)
-    out.append({**base, "derived": "GM [m] (prior mass and r44)", "derived_value": g.value, "derived_std": g.std})
+    if "Heave" in best:
+        r = best["Heave"]
+        std = (r["ci_high"] - r["ci_low"]) / 3.92
+        draft = lh.draft
+        for _ in range(4):  # the waterplane and A33 depend on the draft the displacement implies
+            awp = float(db.interp("buoyancy_stiffness", np.atleast_1d(draft))[0, 2, 2] / (db.rho * db.g))
+            d = displacement_from_heave_u(r["omega_n"], added(2, draft), awp, std_omega3=std, rho=db.rho, g=db.g)
+            draft = db.draft_for_volume(np.clip(d.value / db.rho, db.disp_volume[0], db.disp_volume[-1]))
+        out.append({**r, "derived": "displacement [t]", "derived_value": d.value / 1e3, "derived_std": d.std / 1e3})
+    if "Roll" in best:
+        r = best["Roll"]
+        std = (r["ci_high"] - r["ci_low"]) / 3.92
+        a44 = added(3, lh.draft)
+        try:
+            d = r44_from_roll_u(r["omega_n"], mass, gm, a44, std_omega4=std, g=db.g)
+            out.append({**r, "derived": f"r44 [m] (GM {gm:.3f} m)", "derived_value": d.value, "derived_std": d.std})
+        except ValueError:
+            pass
+        d = gm_from_roll_u(r["omega_n"], mass, r44, a44, std_omega4=std, g=db.g)
+        out.append({**r, "derived": f"GM [m] (r44 {r44:.2f} m)", "derived_value": d.value, "derived_std": d.std})
     return out
+
+
+def load_draft(model, loading) -> float:
+    from seatune.physics.loading import load
+
+    return float(load(model.db, loading).draft[0])
 
 
 def identify_stage(run, model, echo=print, force: bool = False) -> dict:
@@ -144,31 +392,53 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
     from seatune.io.rundir import fingerprint, is_fresh
     from seatune.physics.response import natural_frequencies
 
+    settings, uncertainty = run.spec.identify, run.spec.hindcast.uncertainty
     src = [run.artefact("windows.parquet"), run.artefact("window_spectra.parquet"), run.artefact("motions.parquet")]
-    fp = fingerprint(src + [run.hindcast_path, run.vessel_path], {"stage": "identify"})
+    fp = fingerprint(src + [run.hindcast_path, run.vessel_path],
+                     {"stage": "identify", "identify": settings.model_dump(), "uncertainty": uncertainty.model_dump()})
     out_r, out_n = run.artefact("raos.parquet"), run.artefact("natural_frequencies.parquet")
     if not force and is_fresh([out_r, out_n], fp):
         return {"skipped": True}
     windows, spectra = pd.read_parquet(src[0]), pd.read_parquet(src[1])
-    motions = pd.read_parquet(src[2], columns=["time", "lat", "lon"])
+    motions = pd.read_parquet(src[2])
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
     prior = model.base_loading
-    parts = []
+    draft = float(load_draft(model, prior))
+    modes = mode_channels(model, set(spectra["channel"].unique()))
+    parts, per_window = [], []
     for row in windows[windows["accepted"]].itertuples():
         mid = row.start + (row.end - row.start) / 2
         k = int(np.clip(motions["time"].searchsorted(mid), 0, len(motions) - 1))
         spec_w = spectra[spectra["window_id"] == row.window_id]
         omega = spec_w[spec_w["channel"] == spec_w["channel"].iloc[0]]["omega"].to_numpy()
         wave, dirs, source = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], omega)
-        parts += identify_window(model, prior, row, wave, dirs, source, spec_w)
+        estimates, rows, beta, window_flag = identify_window(model, prior, row, wave, dirs, source, spec_w, settings,
+                                                             uncertainty)
+        parts += rows
+        s_wave = wave.sum(axis=1) * np.radians(np.diff(np.r_[dirs, dirs[0] + 360.0]).mean())
+        in_window = (motions["time"] >= row.start) & (motions["time"] <= row.end) & (motions["record"] == row.record)
+        per_window.append({"window_id": str(row.window_id), "estimates": estimates, "s_wave": s_wave, "omega": omega,
+                           "wave": wave, "dirs": dirs, "heading": row.heading_deg, "draft": draft,
+                           "tp_rel_std": uncertainty.tp_std_s / row.tp,
+                           "low_confidence": window_flag,
+                           "modes": mode_spectra(model, modes, spec_w, motions[in_window],
+                                                 run.spec.filter.welch_segment_s),
+                           "sector": sector_of(beta, settings.heading_sector_deg),
+                           "hs_bin": float(np.floor(row.hs / settings.hs_bin_m) * settings.hs_bin_m)})
     raos = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(RAO_UNITS))
-    prior_roll = float(natural_frequencies(model.db, prior)[0, 1])
-    rows = roll_natural_frequency(raos, prior_roll)
-    rows += [d for r in rows if r["window_id"] == "all" for d in derived_roll_parameters(model, prior, r)]
+    if per_window:
+        raos = pd.concat([raos, *aggregate_rows(per_window, raos, settings)], ignore_index=True)
+    prior_nat = natural_frequencies(model.db, prior)[0]
+    prior_omega = {dof: float(prior_nat[i]) for i, dof in enumerate(("Heave", "Roll", "Pitch"))}
+    rows = natural_frequency_rows(model, per_window, prior_omega, settings)
+    known = model.loading(**settings.known) if settings.known else prior
+    rows += derived_parameters(model, known, rows)
     nat = pd.DataFrame(rows, columns=list(NF_UNITS))
     write_table(raos, out_r, RAO_UNITS, {"fingerprint": fp})
     write_table(nat, out_n, NF_UNITS, {"fingerprint": fp})
-    combined = nat[(nat["window_id"] == "all") & nat["derived"].isna()]
-    return {"skipped": False, "windows": int(windows["accepted"].sum()), "channels": int(raos["channel"].nunique()),
-            "roll_omega_n": float(combined["omega_n"].iloc[0]) if len(combined) else float("nan"),
-            "prior_roll_omega_n": prior_roll}
+    combined = nat[(nat["window_id"] == "all") & nat["derived"].isna() & (nat["method"] == "admittance_peak_sdof")]
+    omega_n = dict(zip(combined["dof"], combined["omega_n"], strict=True))
+    return {"skipped": False, "windows": int(windows["accepted"].sum()),
+            "low_confidence": sum(w["low_confidence"] for w in per_window),
+            "channels": int(raos["channel"].nunique()), "omega_n": omega_n, "prior_omega_n": prior_omega,
+            "roll_omega_n": omega_n.get("Roll", float("nan")), "prior_roll_omega_n": prior_omega["Roll"]}
