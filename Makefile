@@ -18,7 +18,7 @@ install: $(STAMP)
 # filter → identify (later stages extend it to the report).
 run: $(STAMP)
 	$(BIN)/seatune vessel info configs/vessels/sample_osv.yaml
-	$(BIN)/seatune identify configs/runs/sample.yaml
+	$(BIN)/seatune tune configs/runs/sample.yaml
 	@echo "artefacts in runs/sample/"
 
 test: $(STAMP)

@@ -3,10 +3,10 @@
 import json
 import sys
 
-from benchmarks import bench_channel_sigma, bench_filter, bench_ingest, bench_synthesis
+from benchmarks import bench_channel_sigma, bench_dbi, bench_filter, bench_ingest, bench_synthesis, bench_ukf
 
 BENCHMARKS = {"channel_sigma": bench_channel_sigma.run, "synthesis": bench_synthesis.run, "filter": bench_filter.run,
-              "ingest": bench_ingest.run}
+              "ingest": bench_ingest.run, "ukf": bench_ukf.run, "dbi": bench_dbi.run}
 
 if __name__ == "__main__":
     names = sys.argv[1:] or list(BENCHMARKS)

@@ -108,7 +108,7 @@ def test_rao_intervals_hold_the_true_rao(trials, sample_model):
 def test_heave_and_roll_natural_frequencies_and_r44(trials, sample_model):
     """Combined ω_n of heave and roll within 2 % of the truth loading's natural frequencies (the physics core's
     fixed point, checked against brentq in test_physics_core); r44 implied by roll with the known GM within
-    5 %; the displacement implied by heave holds the truth within its interval."""
+    5 %, and the displacement implied by heave within 5 %."""
     from seatune.physics.response import natural_frequencies
 
     for out, truth, _ in trials:
@@ -122,7 +122,7 @@ def test_heave_and_roll_natural_frequencies_and_r44(trials, sample_model):
         r44 = derived[derived.derived.str.startswith("r44")].iloc[0]
         assert r44.derived_value == pytest.approx(truth["loading"]["r44"], rel=0.05)
         disp = derived[derived.derived.str.startswith("displacement")].iloc[0]
-        assert abs(disp.derived_value - truth["loading"]["mass"] / 1e3) < 2.0 * disp.derived_std
+        assert disp.derived_value == pytest.approx(truth["loading"]["mass"] / 1e3, rel=0.05)
 
 
 def test_hindcast_missing_the_swell_is_flagged_and_left_out(tmp_path):

@@ -9,7 +9,7 @@ import click
 
 from seatune.cli.main import cli, handle_errors
 
-ORDER = ("ingest", "windows", "filter", "identify")
+ORDER = ("ingest", "windows", "filter", "identify", "tune")
 
 
 def _line(stage: str, summary: dict, seconds: float) -> str:
@@ -20,6 +20,8 @@ def _line(stage: str, summary: dict, seconds: float) -> str:
         fixed = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in c.items() if v) or "no defects"
         return (f"ingest: {summary['samples']:,} samples in {summary['records']} record(s), {summary['hours']:.1f} h, "
                 f"{summary['hindcast_hours']} hindcast hours; {fixed} ({seconds:.0f} s)")
+    if stage == "tune":
+        return _tune_line(summary, seconds)
     if stage == "windows":
         return (f"windows: {summary['accepted']} of {summary['candidates']} candidates accepted, "
                 f"{summary['accepted_minutes']:.0f} min free floating ({seconds:.0f} s)")
@@ -32,21 +34,34 @@ def _line(stage: str, summary: dict, seconds: float) -> str:
             f"({summary['low_confidence']} low-confidence); natural frequencies [rad/s]: {nat} ({seconds:.0f} s)")
 
 
+def _tune_line(summary: dict, seconds: float) -> str:
+    post = ", ".join(f"{k} {m:.4g} ± {s:.2g}" for k, (m, s) in summary["posterior"].items())
+    return (f"tune: {summary['backend']} on {summary['windows']} windows: {post}; held-out σ error "
+            f"{100 * summary['error_prior']:.1f} % (prior) → {100 * summary['error_tuned']:.1f} % (tuned) "
+            f"over {summary['holdout']} windows ({seconds:.0f} s)")
+
+
 def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = ()) -> None:
     from seatune.io.run_yaml import Run
     from seatune.pipeline.filter import filter_stage
     from seatune.pipeline.identify import identify_stage
     from seatune.pipeline.ingest import ingest
+    from seatune.pipeline.tune import tune_stage
     from seatune.pipeline.vessel import open_vessel
     from seatune.pipeline.windows import windows_stage
 
     run = Run(run_yaml)
     model = open_vessel(run.vessel_path)
+    if last == "tune":
+        from seatune.pipeline.tune import tuning_parameters
+
+        tuning_parameters(run, model)  # a bad tuning config fails before any stage runs
     run.run_dir.mkdir(parents=True, exist_ok=True)
     stages = {"ingest": lambda f: ingest(run, model, echo=click.echo, force=f),
               "windows": lambda f: windows_stage(run, echo=click.echo, force=f),
               "filter": lambda f: filter_stage(run, model, echo=click.echo, force=f),
-              "identify": lambda f: identify_stage(run, model, echo=click.echo, force=f)}
+              "identify": lambda f: identify_stage(run, model, echo=click.echo, force=f),
+              "tune": lambda f: tune_stage(run, model, echo=click.echo, force=f)}
     redo = False
     for stage in ORDER[: ORDER.index(last) + 1]:
         redo = redo or stage in force
@@ -70,3 +85,5 @@ ingest = _command("ingest", "Logs + hindcast → motions.parquet, waves.parquet.
 windows = _command("windows", "Free-floating, stationary windows → windows.parquet.")
 filter_ = _command("filter", "Adaptive lowpass cutoff, σ, Tz and Welch spectra per window → window_stats.parquet.")
 identify = _command("identify", "RAOs and natural frequencies → raos.parquet, natural_frequencies.parquet.")
+tune = _command("tune", "Loading parameters tuned window by window (DBI or UKF) → tuning_history.parquet, "
+                        "tuned_vessel.yaml, validation.parquet.")

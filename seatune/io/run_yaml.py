@@ -84,6 +84,45 @@ class IdentifySettings(Strict):
         return v
 
 
+class DbiSettings(Strict):
+    database_points: Annotated[int, Field(ge=2)] = 7  # I_m per parameter (A2)
+    pmf_points: Annotated[int, Field(ge=3)] = 40  # K_m per parameter
+    likelihood: Literal["gaussian", "idw"] = "gaussian"
+    power: PositiveFloat = 0.4  # IDW power p (A2 eq. 10)
+    screening_alpha: Annotated[float, Field(ge=0)] = 0.05  # α0 (A2 eq. 9)
+    model_error: Annotated[float, Field(ge=0)] = 0.05  # relative model-error std added to the σ̂ sampling variance
+    # database → PMF grid: linear (A2); cubic is calibrated on smooth synthetic problems (tests/test_tuning_dbi.py)
+    # but its overshoot of a steep log-likelihood put the sample's posterior in a corner — not the default
+    interpolation: Literal["linear", "cubic"] = "linear"
+    hypothesis_mixing: Literal["joint", "per_sensor"] = "joint"  # per_sensor = thesis eq. 3.7
+
+
+class UkfSettings(Strict):
+    alpha: PositiveFloat = 0.01  # A6 Table 5
+    beta: float = 2.0
+    kappa: float | None = None  # None: 3 − N
+    r_fraction: Annotated[float, Field(ge=0)] = 0.02  # R = r_fraction · σ̂² (A6), floored by the sampling variance
+    q_fraction: Annotated[float, Field(ge=0)] = 0.1  # Q std as a fraction of each prior std
+
+
+class TuningSettings(Strict):
+    backend: Literal["dbi", "ukf"] = "dbi"
+    parameters: list[str] = Field(default=["r44", "beta44"], min_length=1)  # priors from the vessel YAML
+    channels: list[str] | None = None  # default: every filtered channel the vessel defines
+    statistics: list[Literal["sigma", "tz"]] = ["sigma"]
+    holdout_every: Annotated[int, Field(ge=0)] = 3  # every k-th accepted window is held out for validation (0: none)
+    dbi: DbiSettings = DbiSettings()
+    ukf: UkfSettings = UkfSettings()
+
+    @field_validator("parameters")
+    @classmethod
+    def _known_parameters(cls, v):
+        for name in v:
+            if name not in LOADING_PARAMETERS:
+                raise ValueError(f"unknown loading parameter '{name}' (one of {', '.join(LOADING_PARAMETERS)})")
+        return v
+
+
 class RunSpec(Strict):
     name: str
     run_dir: str
@@ -96,6 +135,7 @@ class RunSpec(Strict):
     windows: WindowSettings = WindowSettings()
     filter: FilterSettings = FilterSettings()
     identify: IdentifySettings = IdentifySettings()
+    tuning: TuningSettings = TuningSettings()
 
 
 class Run:

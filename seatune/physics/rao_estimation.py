@@ -209,7 +209,7 @@ def _amplitude_from_ratio(S_resp: np.ndarray, denom: np.ndarray, dof, level: flo
     z·σ_wave (the χ² interval is asymmetric in ln|H|, so lower and upper halves are widened separately).
     """
     lo_s, hi_s = chi2_interval(S_resp, dof, level)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         amp = np.sqrt(S_resp / denom)
         low = np.sqrt(lo_s / denom)
         high = np.sqrt(hi_s / denom)

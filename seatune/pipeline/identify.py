@@ -196,8 +196,9 @@ def aggregate_rows(per_window: list[dict], raos: pd.DataFrame, settings) -> list
             members = [str(w["window_id"]) for w, e in zip(per_window, ests, strict=True)
                        if (w["sector"], w["hs_bin"]) == (sector, hs_bin) and not e.low_confidence]
             prior = raos[(raos["channel"] == name) & raos["window_id"].isin(members)]
-            model_prior = np.exp(np.log(prior.pivot(index="omega", columns="window_id", values="model_prior"))
-                                 .mean(axis=1)).reindex(part["omega"].to_numpy()).to_numpy()
+            table = prior.pivot(index="omega", columns="window_id", values="model_prior")
+            with np.errstate(divide="ignore"):
+                model_prior = np.exp(np.log(table).mean(axis=1)).reindex(part["omega"].to_numpy()).to_numpy()
             out.append(pd.DataFrame({
                 "scope": "aggregate", "window_id": "+".join(members), "channel": name,
                 "omega": part["omega"].to_numpy(), "rao_amp": part["amplitude"].to_numpy(),

@@ -1,0 +1,216 @@
+"""`seatune tune`: the loading parameters named in the run YAML, tuned window by window (one sea state per
+accepted window, in time order) with the backend named in the YAML (DBI, Han A1/A2/A5; UKF, Han A6), then
+validated on held-out windows.
+
+Per training window: the observation is the filtered σ (and optionally Tz) of each channel from
+window_stats.parquet, with the sampling variance of σ̂ for the record (ν = T m0²/(π ∫S² dω) from the window's
+Welch spectrum); the sea state is the hindcast's directional spectrum at the window with Hs, Tp and direction
+uncertain as the run YAML's `hindcast.uncertainty` (3-point Gauss–Hermite hypotheses per component for DBI,
+the Gaussian itself for the UKF's weather update).
+"""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import yaml
+
+from seatune.errors import UserError
+
+HISTORY_UNITS = {"update": "", "window_id": "", "backend": "", "parameter": "", "mean": "", "std": "", "q05": "",
+                 "q50": "", "q95": "", "channels_used": ""}
+VALIDATION_UNITS = {"window_id": "", "role": "", "measurement": "", "measured": "", "predicted_prior": "",
+                    "predicted_tuned": ""}
+GH_NODES = np.array([-np.sqrt(3.0), 0.0, np.sqrt(3.0)])  # 3-point Gauss–Hermite (probabilists'): exact to 5th moment
+GH_WEIGHTS = np.array([1 / 6, 2 / 3, 1 / 6])
+
+
+def tuning_parameters(run, vessel):
+    from seatune.tuning.interface import Parameter
+
+    out = []
+    for name in run.spec.tuning.parameters:
+        prior = vessel.spec.priors.get(name)
+        if prior is None:
+            raise UserError(str(run.path), "tuning.parameters",
+                            f"'{name}' has no prior in {vessel.source} (priors: {', '.join(vessel.spec.priors)})")
+        lo, hi = prior.bounds if prior.bounds is not None else (-np.inf, np.inf)
+        try:
+            out.append(Parameter(name, float(prior.mean), float(prior.std), float(lo), float(hi)))
+        except ValueError as err:
+            raise UserError(str(vessel.source), f"priors.{name}", str(err)) from None
+    return out
+
+
+def make_backend(settings, parameters):
+    if settings.backend == "dbi":
+        from seatune.tuning.dbi import DBI
+
+        s = settings.dbi
+        return DBI(parameters, database_points=s.database_points, pmf_points=s.pmf_points, likelihood=s.likelihood,
+                   power=s.power, screening_alpha=s.screening_alpha, model_error=s.model_error,
+                   interpolation=s.interpolation if s.likelihood == "gaussian" else "linear",
+                   hypothesis_mixing=s.hypothesis_mixing)
+    from seatune.tuning.ukf import UKF
+
+    s = settings.ukf
+    q = {p.name: s.q_fraction * p.prior_std for p in parameters}
+    return UKF(parameters, alpha=s.alpha, beta=s.beta, kappa=s.kappa, r_fraction=s.r_fraction, process_noise=q)
+
+
+def sea_state(theta0: np.ndarray, std: np.ndarray):
+    """Gaussian θ' and its 27 discrete hypotheses (product of 3-point Gauss–Hermite rules)."""
+    from seatune.tuning.forward import SEA_STATE_NAMES
+    from seatune.tuning.interface import SeaState
+
+    grids = np.meshgrid(*[GH_NODES] * 3, indexing="ij")
+    points = theta0[None, :] + np.stack([g.ravel() for g in grids], axis=1) * std[None, :]
+    points[:, :2] = np.maximum(points[:, :2], 1e-3)
+    weights = np.prod(np.meshgrid(*[GH_WEIGHTS] * 3, indexing="ij"), axis=0).ravel()
+    return SeaState(SEA_STATE_NAMES, theta0, np.diag(std**2), points, weights / weights.sum())
+
+
+def effective_dof(S: np.ndarray, omega: np.ndarray, duration_s: float) -> float:
+    """ν = T m0² / (π ∫S² dω) of a σ̂² estimate from a record of length T (one-sided S in rad/s)."""
+    m0 = np.trapezoid(S, omega)
+    return float(duration_s * m0**2 / (np.pi * np.trapezoid(S**2, omega)))
+
+
+def window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, names):
+    """(window_id, ForwardModel, Observation, SeaState) per accepted window, in time order."""
+    from seatune.pipeline.identify import mean_wave_direction, window_wave_spectrum
+    from seatune.tuning.forward import WindowStatistics
+    from seatune.tuning.interface import Observation
+
+    unc = run.spec.hindcast.uncertainty
+    db = vessel.db
+    out = []
+    for row in windows[windows["accepted"]].sort_values("start").itertuples():
+        st = stats[stats["window_id"] == row.window_id].set_index("channel")
+        sp = spectra[spectra["window_id"] == row.window_id]
+        mid = row.start + (row.end - row.start) / 2
+        k = int(np.clip(motions["time"].searchsorted(mid), 0, len(motions) - 1))
+        wave, dirs, _ = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], db.omega)
+        d_dir = np.radians(np.diff(np.r_[dirs, dirs[0] + 360.0]).mean())
+        hs0 = 4.0 * np.sqrt(np.trapezoid(wave.sum(axis=1) * d_dir, db.omega))
+        theta0 = np.array([hs0, row.tp, mean_wave_direction(wave, dirs, row.heading_deg)])
+        std = np.array([unc.hs_rel_std * hs0, unc.tp_std_s, unc.dir_std_deg])
+        cutoff = {c: 2 * np.pi * float(st.loc[c, "cutoff_hz"]) for c in st.index}
+        model = WindowStatistics(power, names, wave, dirs, row.heading_deg, theta0, cutoff)
+        z, var = [], []
+        for name in names:
+            ch, stat = name.split(":")
+            part = sp[sp["channel"] == ch]
+            om, S = part["omega"].to_numpy(), part["S"].to_numpy()
+            band = om <= cutoff[ch]
+            nu = effective_dof(S[band], om[band], row.duration_s)
+            if stat == "sigma":
+                value = float(st.loc[ch, "sigma"])
+                z.append(value)
+                var.append(value**2 / (2 * nu))  # Var σ̂ ≈ σ²/(2ν) (delta method on χ²_ν)
+            else:
+                value = float(st.loc[ch, "tz"])
+                z.append(value)
+                var.append(value**2 / (2 * nu))  # same relative sampling error (first order)
+        obs = Observation(str(row.window_id), tuple(names), np.array(z), np.array(var), float(row.duration_s))
+        out.append((str(row.window_id), model, obs, sea_state(theta0, std)))
+    return out
+
+
+def history_rows(update: int, window_id: str, backend: str, post) -> list[dict]:
+    return [{"update": update, "window_id": window_id, "backend": backend, "parameter": name,
+             "mean": float(post.mean[i]), "std": float(post.std[i]), "q05": float(post.quantiles[0.05][i]),
+             "q50": float(post.quantiles[0.5][i]), "q95": float(post.quantiles[0.95][i]),
+             "channels_used": ",".join(post.used)} for i, name in enumerate(post.names)]
+
+
+def tuned_vessel_yaml(vessel, post, path: Path) -> None:
+    """The vessel YAML with the posterior means as loading and the posterior as priors (usable everywhere)."""
+    data = yaml.safe_load(Path(vessel.source).read_text())
+    data = copy.deepcopy(data)
+    if data.get("hydro_database"):
+        data["hydro_database"] = str((Path(vessel.source).parent / data["hydro_database"]).resolve())
+    if isinstance(data.get("hull"), dict):
+        for key in ("mesh", "path"):
+            for sub in data["hull"].values():
+                if isinstance(sub, dict) and key in sub:
+                    sub[key] = str((Path(vessel.source).parent / sub[key]).resolve())
+    for i, name in enumerate(post.names):
+        data["loading"][name] = float(post.mean[i])
+        if name == "mass":
+            data["loading"].pop("displacement", None)
+        prior = data.setdefault("priors", {}).setdefault(name, {})
+        prior["mean"], prior["std"] = float(post.mean[i]), float(post.std[i])
+    data["description"] = (data.get("description", "") + " Tuned by seatune.").strip()
+    from seatune.io.atomic import atomic_path
+
+    with atomic_path(path) as tmp:
+        tmp.write_text(yaml.safe_dump(data, sort_keys=False, allow_unicode=True))
+
+
+def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
+    from seatune.io.hindcast_readers import read_hindcast
+    from seatune.io.parquet import write_table
+    from seatune.io.rundir import fingerprint, is_fresh
+    from seatune.tuning.forward import ChannelPower
+
+    settings = run.spec.tuning
+    src = [run.artefact(n) for n in ("windows.parquet", "window_stats.parquet", "window_spectra.parquet",
+                                     "motions.parquet")]
+    fp = fingerprint(src + [run.hindcast_path, run.vessel_path],
+                     {"stage": "tune", "tuning": settings.model_dump(),
+                      "uncertainty": run.spec.hindcast.uncertainty.model_dump()})
+    outs = [run.artefact(n) for n in ("tuning_history.parquet", "validation.parquet")]
+    tuned_path = run.artefact("tuned_vessel.yaml")
+    if not force and is_fresh(outs, fp) and tuned_path.exists():
+        return {"skipped": True}
+    parameters = tuning_parameters(run, vessel)
+    windows, stats, spectra = (pd.read_parquet(p) for p in src[:3])
+    motions = pd.read_parquet(src[3], columns=["time", "lat", "lon"])
+    hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
+    available = set(stats["channel"])
+    channels = settings.channels or [c.name for c in vessel.channels if c.name in available]
+    missing = [c for c in channels if c not in available]
+    if missing:
+        raise UserError(str(run.path), "tuning.channels", f"not among the filtered channels: {', '.join(missing)}")
+    names = [f"{c}:{s}" for c in channels for s in settings.statistics]
+    power = ChannelPower(vessel, [p.name for p in parameters], channels)
+    inputs = window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, names)
+    if not inputs:
+        raise UserError(str(run.path), "windows", "no accepted window to tune on")
+    k = settings.holdout_every
+    roles = ["holdout" if k and (i % k == k - 1) else "train" for i in range(len(inputs))]
+    if "train" not in roles:
+        roles[0] = "train"
+    backend = make_backend(settings, parameters)
+    rows = history_rows(0, "", backend.name, backend.posterior())
+    for i, ((wid, model, obs, sea), role) in enumerate(zip(inputs, roles, strict=True)):
+        if role == "train":
+            rows += history_rows(i + 1, wid, backend.name, backend.update(model, obs, sea))
+    post = backend.posterior()
+    prior_phi = np.array([[p.prior_mean for p in parameters]])
+    tuned_phi = post.mean[None, :]
+    val = []
+    for (wid, model, obs, sea), role in zip(inputs, roles, strict=True):
+        pred = model.predict(np.vstack([prior_phi, tuned_phi]), sea.mean[None, :])[:, 0, :]
+        val += [{"window_id": wid, "role": role, "measurement": n, "measured": float(obs.z[j]),
+                 "predicted_prior": float(pred[0, j]), "predicted_tuned": float(pred[1, j])}
+                for j, n in enumerate(names)]
+    history, validation = pd.DataFrame(rows, columns=list(HISTORY_UNITS)), pd.DataFrame(val)
+    meta = {"fingerprint": fp}
+    write_table(history, outs[0], HISTORY_UNITS, meta)
+    write_table(validation, outs[1], VALIDATION_UNITS, meta)
+    tuned_vessel_yaml(vessel, post, tuned_path)
+    held = validation[validation["role"] == "holdout"]
+    held = held if len(held) else validation
+
+    def err(col):
+        return float(np.mean(np.abs(np.log(held[col] / held["measured"]))))
+
+    return {"skipped": False, "backend": backend.name, "windows": roles.count("train"),
+            "holdout": roles.count("holdout"), "posterior": dict(zip(post.names, zip(post.mean, post.std,
+                                                                                         strict=True), strict=True)),
+            "error_prior": err("predicted_prior"), "error_tuned": err("predicted_tuned")}

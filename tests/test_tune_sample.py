@@ -1,0 +1,88 @@
+"""`seatune tune` end to end on sample_logs/ with both backends, and bad tuning configs."""
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+from tests.conftest import ROOT
+from tests.test_pipeline_sample import SAMPLE, run_cli
+
+
+def sample_run(tmp, **tuning):
+    data = yaml.safe_load((ROOT / "configs/runs/sample.yaml").read_text())
+    data["run_dir"] = str(tmp / "run")
+    data["vessel"] = str(ROOT / "configs/vessels/sample_osv.yaml")
+    for log in data["logs"]:
+        log["path"] = str(SAMPLE / log["path"].split("/")[-1])
+    data["hindcast"]["path"] = str(SAMPLE / data["hindcast"]["path"].split("/")[-1])
+    data["tuning"] = {**data.get("tuning", {}), **tuning}
+    path = tmp / "run.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.fixture(scope="module")
+def filtered(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("tune")
+    path = sample_run(tmp)
+    res = run_cli("identify", path)
+    assert res.returncode == 0, res.stderr
+    return tmp
+
+
+@pytest.mark.parametrize("backend", ["dbi", "ukf"])
+def test_tune_runs_end_to_end_and_improves_held_out_prediction(filtered, backend, sample_model):
+    path = sample_run(filtered, backend=backend, parameters=["gmt_fs", "r44", "beta44"])
+    res = run_cli("tune", path, "--force", "tune")
+    assert res.returncode == 0, res.stderr
+    assert "identify: up to date" in res.stdout and f"tune: {backend} on 2 windows" in res.stdout
+    out = filtered / "run"
+    hist = pd.read_parquet(out / "tuning_history.parquet")
+    assert set(hist.parameter) == {"gmt_fs", "r44", "beta44"} and hist["update"].max() == 2
+    assert (hist.backend == backend).all()
+    last = hist[hist["update"] == 2].set_index("parameter")
+    first = hist[hist["update"] == 0].set_index("parameter")
+    assert last.loc["r44", "std"] < first.loc["r44", "std"]  # the roll data inform r44
+    truth = yaml.safe_load((SAMPLE / "truth.yaml").read_text())["loading"]
+    assert abs(last.loc["r44", "mean"] - truth["r44"]) < abs(first.loc["r44", "mean"] - truth["r44"])
+    val = pd.read_parquet(out / "validation.parquet")
+    held = val[val.role == "holdout"]
+    assert len(held) > 0
+    roll = held[held.measurement.str.startswith("roll")]
+    err_prior = np.abs(np.log(roll.predicted_prior / roll.measured)).mean()
+    err_tuned = np.abs(np.log(roll.predicted_tuned / roll.measured)).mean()
+    assert err_tuned < 0.7 * err_prior
+    tuned = out / "tuned_vessel.yaml"
+    from seatune.pipeline.vessel import open_vessel
+
+    model = open_vessel(tuned)  # usable as input to every command
+    assert model.spec.loading.r44 == pytest.approx(last.loc["r44", "mean"])
+
+
+@pytest.mark.parametrize("tuning, needle", [
+    ({"backend": "dbl"}, "tuning.backend"),
+    ({"parameters": ["r45"]}, "tuning.parameters"),
+    ({"parameters": ["ycg"]}, "has no prior"),
+])
+def test_bad_tuning_config_exits_2_with_one_line(tmp_path, tuning, needle):
+    path = sample_run(tmp_path, **tuning)
+    res = run_cli("tune", path)
+    assert res.returncode == 2, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0]
+
+
+def test_prior_outside_bounds_exits_2(tmp_path):
+    vessel = yaml.safe_load((ROOT / "configs/vessels/sample_osv.yaml").read_text())
+    vessel["hydro_database"] = str(ROOT / "configs/vessels" / vessel["hydro_database"])
+    vessel["priors"]["r44"]["mean"] = 12.0
+    (tmp_path / "v.yaml").write_text(yaml.safe_dump(vessel))
+    path = sample_run(tmp_path, parameters=["r44"])
+    data = yaml.safe_load(path.read_text())
+    data["vessel"] = str(tmp_path / "v.yaml")
+    path.write_text(yaml.safe_dump(data))
+    res = run_cli("tune", path)
+    assert res.returncode == 2
+    assert "priors.r44" in res.stderr or "r44" in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1
