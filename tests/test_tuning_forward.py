@@ -36,9 +36,9 @@ def test_forward_sigma_equals_channel_statistics(sample_model):
     loading = sample_model.loading(r44=phi[:, 0], beta44=phi[:, 1])
     sigma, tz = channel_statistics(db, loading, [sample_model.channel(c) for c in CHANNELS], on_beta)
     expected = np.stack([sigma, tz], axis=-1).reshape(2, -1)
-    np.testing.assert_allclose(pred, expected, rtol=2e-6)  # float32 channel power
+    np.testing.assert_allclose(pred, expected, rtol=1e-5)  # float32 channel power and sums
     paired = model.predict_paired(phi, np.array([[hs0, 9.0, 0.0]] * 2))
-    np.testing.assert_allclose(paired, pred, rtol=1e-12)
+    np.testing.assert_allclose(paired, pred, rtol=1e-6)
 
 
 def test_hs_scaling_and_direction_rotation(sample_model):

@@ -19,34 +19,34 @@ SEA_STATE_NAMES = ("hs", "tp", "beta_deg")
 
 
 class ChannelPower:
-    """|H_j(ω, β)|² on the hydro database grid for batches of loading conditions, cached by φ row."""
+    """|H_j(ω, β)|² on the hydro database grid for a batch of loading conditions, laid out (nw, n, c, nb) float32
+    for one batched matrix product per frequency; the last few batches are cached (the DBI database is the same
+    batch in every window)."""
 
-    def __init__(self, vessel, parameter_names, channel_names, max_cache: int = 200_000):
+    def __init__(self, vessel, parameter_names, channel_names, max_batches: int = 4):
         self.vessel = vessel
         self.parameter_names = tuple(parameter_names)
         self.channels = [vessel.channel(c) for c in channel_names]
         self.channel_names = tuple(channel_names)
         self._cache: dict[bytes, np.ndarray] = {}
-        self.max_cache = max_cache
+        self.max_batches = max_batches
 
     def loading(self, phi: np.ndarray) -> Loading:
         return self.vessel.loading(**{name: phi[:, k] for k, name in enumerate(self.parameter_names)})
 
     def __call__(self, phi: np.ndarray) -> np.ndarray:
-        """(n, nw, nb, m) float32."""
-        phi = np.atleast_2d(np.asarray(phi, dtype=float))
-        keys = [row.tobytes() for row in phi]
-        missing = [i for i, k in enumerate(keys) if k not in self._cache]
-        if missing:
-            for start in range(0, len(missing), 2000):
-                idx = missing[start:start + 2000]
-                h = channel_raos(self.vessel.db, self.loading(phi[idx]), self.channels)
-                power = (h.real**2 + h.imag**2).astype(np.float32)
-                if len(self._cache) + len(idx) > self.max_cache:
-                    self._cache.clear()
-                for j, i in enumerate(idx):
-                    self._cache[keys[i]] = power[j]
-        return np.stack([self._cache[k] for k in keys])
+        phi = np.ascontiguousarray(np.atleast_2d(np.asarray(phi, dtype=float)))
+        key = phi.tobytes()
+        if key not in self._cache:
+            db = self.vessel.db
+            out = np.empty((db.omega.size, phi.shape[0], len(self.channels), db.wave_direction.size), np.float32)
+            for start in range(0, phi.shape[0], 2000):
+                h = channel_raos(db, self.loading(phi[start:start + 2000]), self.channels)  # (n, nw, nb, c)
+                out[:, start:start + 2000] = (h.real**2 + h.imag**2).transpose(1, 0, 3, 2)
+            if len(self._cache) >= self.max_batches:
+                self._cache.pop(next(iter(self._cache)))
+            self._cache[key] = out
+        return self._cache[key]
 
 
 class WindowStatistics:
@@ -92,22 +92,28 @@ class WindowStatistics:
         return out
 
     def _statistics(self, spectra: np.ndarray) -> np.ndarray:
-        """spectra (..., nw, n_channels) -> (..., m) σ or Tz per measurement (band-limited at the filter cutoff)."""
-        s = spectra[..., self._chan]  # (..., nw, m)
-        m0 = np.einsum("...wm,mw->...m", s, self._w)
-        m2 = np.einsum("...wm,mw->...m", s, self._w * self.omega**2)
-        sigma = np.sqrt(np.maximum(m0, 0.0))
-        tz = 2 * np.pi * np.sqrt(m0 / np.maximum(m2, 1e-300))
-        return np.where(self._stat == "tz", tz, sigma)
+        """spectra (nw, n, c, h) -> (n, h, m) σ or Tz per measurement (band-limited at the filter cutoff)."""
+        out = np.empty(spectra.shape[1:2] + spectra.shape[3:] + (len(self.names),))
+        for j, (c, stat) in enumerate(zip(self._chan, self._stat, strict=True)):
+            m0 = np.tensordot(self._w[j].astype(np.float32), spectra[:, :, c, :], axes=(0, 0)).astype(float)
+            if stat == "tz":
+                m2 = np.tensordot((self._w[j] * self.omega**2).astype(np.float32), spectra[:, :, c, :],
+                                  axes=(0, 0)).astype(float)
+                out[..., j] = 2 * np.pi * np.sqrt(m0 / np.maximum(m2, 1e-300))
+            else:
+                out[..., j] = np.sqrt(np.maximum(m0, 0.0))
+        return out
+
+    def _spectra(self, power: np.ndarray, waves: np.ndarray) -> np.ndarray:
+        """Σ_β |H|² S Δβ per frequency as one batched matrix product: (nw, n, c, h)."""
+        nw, n, c, nb = power.shape
+        spectra = np.matmul(power.reshape(nw, n * c, nb), waves.transpose(1, 2, 0).astype(np.float32))
+        return spectra.reshape(nw, n, c, -1)
 
     def predict(self, phi: np.ndarray, theta: np.ndarray) -> np.ndarray:
-        power = self.power(phi)  # (n, nw, nb, c)
-        waves = self.wave_weights(theta).astype(np.float32)  # (h, nw, nb)
-        spectra = np.einsum("nwbc,hwb->nhwc", power, waves, optimize=True)
-        return self._statistics(spectra.astype(float))
+        return self._statistics(self._spectra(self.power(phi), self.wave_weights(theta)))
 
     def predict_paired(self, phi: np.ndarray, theta: np.ndarray) -> np.ndarray:
-        power = self.power(phi)
-        waves = self.wave_weights(theta).astype(np.float32)
-        spectra = np.einsum("nwbc,nwb->nwc", power, waves, optimize=True)
-        return self._statistics(spectra.astype(float))
+        full = self._statistics(self._spectra(self.power(phi), self.wave_weights(theta)))  # (n, h = n, m)
+        idx = np.arange(full.shape[0])
+        return full[idx, idx]
