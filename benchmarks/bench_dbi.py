@@ -17,9 +17,9 @@ several runs in this process (the reference runs once: ~40 s on an idle 2-core m
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
+
+from benchmarks.timing import best_of
 
 DATABASE = (7, 5, 7, 6, 7)
 PMF = (14, 10, 14, 12, 14)
@@ -105,15 +105,6 @@ def reference_update(prior, database_grids, pmf_grids, predicted, z, variance, w
     return (post / post.sum()).reshape(prior.shape), sea_post, keep
 
 
-def _best(fn, repeats: int) -> tuple[float, object]:
-    best, out = np.inf, None
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t)
-    return best, out
-
-
 def run() -> dict:
     from seatune.tuning.dbi import DBI
 
@@ -125,9 +116,9 @@ def run() -> dict:
         return dbi, post
 
     fast()  # warm-up
-    seatune_s, (dbi, post) = _best(fast, 5)
+    seatune_s, (dbi, post) = best_of(fast, 5)
     prior = DBI(params, database_points=DATABASE, pmf_points=PMF)
-    reference_s, (ref_joint, ref_sea, keep) = _best(
+    reference_s, (ref_joint, ref_sea, keep) = best_of(
         lambda: reference_update(prior.joint_, prior.database_grids, prior.grids, model.predicted, obs.z,
                                  obs.variance, sea.weights, prior.screening_alpha), 1)
     joint_diff = float(np.abs(dbi.joint_ - ref_joint).max() / ref_joint.max())

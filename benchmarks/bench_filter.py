@@ -10,9 +10,9 @@ SNR 10 (A3 eqs. 6–7). Each timing is the best of several runs in this process.
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
+
+from benchmarks.timing import best_of
 
 FS = 10.0
 DURATION = 1800.0
@@ -36,22 +36,13 @@ def _record(seed: int = 1) -> np.ndarray:
     return x + rng.normal(0, np.std(x, ddof=1) / np.sqrt(10.0), n)
 
 
-def _best(fn, repeats: int) -> tuple[float, object]:
-    best, out = np.inf, None
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t)
-    return best, out
-
-
 def run() -> dict:
     from seatune.physics.adaptive_filter import A3_VALIDATION_GRID_HZ, adaptive_cutoff, adaptive_cutoff_reference
 
     x = _record()
     adaptive_cutoff(x, FS)  # warm-up (FFT plan caches)
-    seatune_s, fast = _best(lambda: adaptive_cutoff(x, FS), 30)
-    reference_s, ref = _best(lambda: adaptive_cutoff_reference(x, FS), 3)
+    seatune_s, fast = best_of(lambda: adaptive_cutoff(x, FS), 30)
+    reference_s, ref = best_of(lambda: adaptive_cutoff_reference(x, FS), 3)
     rel = np.abs(fast.sigma_curve / ref.sigma_curve - 1.0)
     n_up = DURATION / ref.tz_curve
     tz_dev = np.abs(fast.tz_curve / ref.tz_curve - 1.0) * np.sqrt(n_up)

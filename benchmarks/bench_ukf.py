@@ -15,9 +15,9 @@ best of several runs in this process; agreement of the updated state and covaria
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
+
+from benchmarks.timing import best_of
 
 G = 9.81
 OMEGA = np.linspace(0.15, 2.1, 80)
@@ -48,15 +48,6 @@ class HeaveModel:
         phi, theta = np.atleast_2d(phi), np.atleast_2d(theta)
         n, h = phi.shape[0], theta.shape[0]
         return self.predict_paired(np.repeat(phi, h, 0), np.tile(theta, (n, 1))).reshape(n, h, -1)
-
-
-def _best(fn, repeats: int) -> tuple[float, object]:
-    best, out = np.inf, None
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t)
-    return best, out
 
 
 def run() -> dict:
@@ -96,8 +87,8 @@ def run() -> dict:
 
     seatune_update()  # warm-up
     filterpy_update()
-    seatune_s, ukf = _best(seatune_update, 200)
-    reference_s, ref = _best(filterpy_update, 200)
+    seatune_s, ukf = best_of(seatune_update, 200)
+    reference_s, ref = best_of(filterpy_update, 200)
     ours = np.c_[ukf.x_, ukf.P_]
     diff = np.abs(ours - ref)
     rel = float((diff / np.maximum(np.abs(ref), 1e-300)).max())
