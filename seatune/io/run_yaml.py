@@ -12,7 +12,7 @@ from typing import Annotated, Literal
 from pydantic import Field, field_validator
 
 from seatune.errors import UserError
-from seatune.io.vessel_yaml import LOADING_PARAMETERS
+from seatune.io.vessel_yaml import check_loading_names
 from seatune.io.yaml_config import PositiveFloat, Strict, read_yaml, validate
 from seatune.pipeline.windows import WindowSettings
 
@@ -78,10 +78,7 @@ class IdentifySettings(Strict):
     @field_validator("known")
     @classmethod
     def _known_parameters(cls, v):
-        for name in v:
-            if name not in LOADING_PARAMETERS:
-                raise ValueError(f"unknown loading parameter '{name}' (one of {', '.join(LOADING_PARAMETERS)})")
-        return v
+        return check_loading_names(v)
 
 
 class DbiSettings(Strict):
@@ -117,10 +114,7 @@ class TuningSettings(Strict):
     @field_validator("parameters")
     @classmethod
     def _known_parameters(cls, v):
-        for name in v:
-            if name not in LOADING_PARAMETERS:
-                raise ValueError(f"unknown loading parameter '{name}' (one of {', '.join(LOADING_PARAMETERS)})")
-        return v
+        return check_loading_names(v)
 
 
 class RunSpec(Strict):

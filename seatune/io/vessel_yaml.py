@@ -24,6 +24,14 @@ LOADING_PARAMETERS = (
 )
 
 
+def check_loading_names(names, extra: tuple[str, ...] = (), what: str = "loading parameter"):
+    """Pydantic validator body: every name is a loading parameter (or one of `extra`)."""
+    for name in names:
+        if name not in LOADING_PARAMETERS and name not in extra:
+            raise ValueError(f"unknown {what} '{name}' (one of {', '.join(LOADING_PARAMETERS)})")
+    return names
+
+
 class ParametricHullSpec(_Strict):
     length: PositiveFloat
     beam: PositiveFloat
@@ -168,10 +176,7 @@ class VesselSpec(_Strict):
     @field_validator("priors")
     @classmethod
     def _known_parameters(cls, v):
-        for name in v:
-            if name not in LOADING_PARAMETERS and name != "displacement":
-                raise ValueError(f"unknown tunable parameter '{name}' (one of {', '.join(LOADING_PARAMETERS)})")
-        return v
+        return check_loading_names(v, extra=("displacement",), what="tunable parameter")
 
     @property
     def depth_m(self) -> float:

@@ -126,7 +126,7 @@ def excitation_spectra(model, draft: float, omega, dirs_from, S2d, heading_deg) 
 def heave_at_origin(motions: pd.DataFrame, imu_point) -> np.ndarray:
     """Vertical acceleration of the body origin from the IMU: f_z + x θ̈ − y φ̈ (rigid body, small angles,
     the constant g removed with the mean): z_p = ξ3 + y ξ4 − x ξ5 (DESIGN §3 sign convention)."""
-    dt = np.median(np.diff(motions["time"].to_numpy()).astype("timedelta64[ns]").astype(float)) * 1e-9
+    dt = _dt(motions)
     x, y = imu_point[0], imu_point[1]
     acc = motions["imu_fz"].to_numpy() + x * np.gradient(motions["pitch_rate"].to_numpy(), dt)
     return acc - y * np.gradient(motions["roll_rate"].to_numpy(), dt)

@@ -11,7 +11,6 @@ the Gaussian itself for the UKF's weather update).
 
 from __future__ import annotations
 
-import copy
 from pathlib import Path
 
 import numpy as np
@@ -107,14 +106,9 @@ def window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, name
             om, S = part["omega"].to_numpy(), part["S"].to_numpy()
             band = om <= cutoff[ch]
             nu = effective_dof(S[band], om[band], row.duration_s)
-            if stat == "sigma":
-                value = float(st.loc[ch, "sigma"])
-                z.append(value)
-                var.append(value**2 / (2 * nu))  # Var σ̂ ≈ σ²/(2ν) (delta method on χ²_ν)
-            else:
-                value = float(st.loc[ch, "tz"])
-                z.append(value)
-                var.append(value**2 / (2 * nu))  # same relative sampling error (first order)
+            value = float(st.loc[ch, stat])
+            z.append(value)
+            var.append(value**2 / (2 * nu))  # Var σ̂ ≈ σ²/(2ν) (delta method on χ²_ν); Tz: same relative error
         obs = Observation(str(row.window_id), tuple(names), np.array(z), np.array(var), float(row.duration_s))
         out.append((str(row.window_id), model, obs, sea_state(theta0, std)))
     return out
@@ -130,7 +124,6 @@ def history_rows(update: int, window_id: str, backend: str, post) -> list[dict]:
 def tuned_vessel_yaml(vessel, post, path: Path) -> None:
     """The vessel YAML with the posterior means as loading and the posterior as priors (usable everywhere)."""
     data = yaml.safe_load(Path(vessel.source).read_text())
-    data = copy.deepcopy(data)
     if data.get("hydro_database"):
         data["hydro_database"] = str((Path(vessel.source).parent / data["hydro_database"]).resolve())
     if isinstance(data.get("hull"), dict):
