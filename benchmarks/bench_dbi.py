@@ -4,14 +4,15 @@ scipy's RegularGridInterpolator.
 Problem: A2's 5-parameter database (7·5·7·6·7 = 10,290 points, A2 Table 3), a 14·10·14·12·14 = 329,280-cell
 PMF grid, 9 measured statistics (one insensitive, so screened out by A2 eq. 9) and 27 sea-state hypotheses
 (3 Hs × 3 Tp × 3 β). The predictions are precomputed (a random but smooth array), so only the backend is
-timed. Gaussian likelihood, joint mixing L = Σ_s PMF(θ_s) Π_j W_{j,s}, log-likelihood interpolated.
+timed. Gaussian likelihood, joint mixing L = Σ_s PMF(θ_s) Π_j W_{j,s}, predictions interpolated.
 
 Reference: the update written out plainly — for every hypothesis and every kept measurement, the
-log-likelihood on the database grid is interpolated onto all PMF-grid points with
+predicted statistic on the database grid is interpolated onto all PMF-grid points with
 ``scipy.interpolate.RegularGridInterpolator`` (coordinates clipped to the database range = edge clamping),
-summed over measurements, mixed over hypotheses with ``np.logaddexp``, multiplied with the prior and
-normalised; p(θ_s | z) with ``scipy.special.logsumexp``. seatune: :class:`seatune.tuning.dbi.DBI` (one
-tensor-product interpolation per hypothesis, matrices applied axis by axis). Each timing is the best of
+turned into the Gaussian log-likelihood, summed over measurements, mixed over hypotheses with ``np.logaddexp``,
+multiplied with the prior and normalised; p(θ_s | z) with ``scipy.special.logsumexp``. seatune:
+:class:`seatune.tuning.dbi.DBI` (one tensor-product interpolation of all measurements per hypothesis, matrices
+applied axis by axis). Each timing is the best of
 several runs in this process (the reference runs once: ~40 s on an idle 2-core machine).
 """
 
@@ -95,8 +96,8 @@ def reference_update(prior, database_grids, pmf_grids, predicted, z, variance, w
     for s in range(len(weights)):
         log_l_s = np.zeros(points.shape[0])
         for j in keep:
-            ll = -((predicted[:, s, j] - z[j]) ** 2) / (2 * variance[j])
-            log_l_s += RegularGridInterpolator(database_grids, ll.reshape(shape))(points)
+            sigma = RegularGridInterpolator(database_grids, predicted[:, s, j].reshape(shape))(points)
+            log_l_s += -((sigma - z[j]) ** 2) / (2 * variance[j])
         log_like = np.logaddexp(log_like, np.log(weights[s]) + log_l_s)
         log_evidence[s] = logsumexp(log_prior + log_l_s)
     log_post = log_prior + log_like

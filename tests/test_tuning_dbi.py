@@ -220,9 +220,8 @@ def test_posterior_concentrates_on_the_truth(interpolation):
         post = dbi.update(model, observe(model, truth, hs=hs, rel_noise=0.03, rng=rng), certain(hs))
     assert np.all(np.abs(post.mean - truth) < 0.15)
     assert np.all(post.std < 0.1)  # prior STD 1
-    if interpolation == "cubic":  # calibrated; multilinear log-likelihood interpolation is over-confident here
-        assert np.all(np.abs(post.mean - truth) < 3 * post.std)
-        assert_allclose(post.std, [0.040, 0.070], rtol=0.1)
+    assert np.all(np.abs(post.mean - truth) < 3 * post.std)  # calibrated: the exact posterior's width
+    assert_allclose(post.std, [0.040, 0.070], rtol=0.1)
 
 
 def _coverage(n_params, n_runs, likelihood, rng, **kwargs):
@@ -329,15 +328,15 @@ def test_two_step_takes_each_marginal_from_its_own_power():
     assert np.abs(two.marginals["y"][1] - low.marginals["y"][1]).max() > 1e-3  # p2 did change it
 
 
-def test_cubic_interpolation_improves_a_coarse_database():
-    # 7 database points (A2's I_m) and a likelihood narrower than their spacing: multilinear interpolation of
-    # the log-likelihood pulls the posterior onto the nodes; the spline does not (figures in the report).
-    rng = np.random.default_rng(5)
-    linear = _coverage(1, 150, "gaussian", rng, database_points=7, pmf_points=101)
-    rng = np.random.default_rng(5)
-    cubic = _coverage(1, 150, "gaussian", rng, database_points=7, pmf_points=101, interpolation="cubic")
-    print(f"90% coverage with 7 database points: linear {linear}, cubic {cubic}")
-    assert cubic[0] > linear[0] + 0.15
+def test_coarse_database_stays_calibrated():
+    # 7 database points (A2's I_m) and a likelihood narrower than their spacing. Interpolating the
+    # log-likelihood pulled the posterior onto the nodes (coverage 0.5 here); the predictions σ(φ) are
+    # smooth, so interpolating them keeps the 90 % interval honest with either interpolant.
+    for interpolation in ("linear", "cubic"):
+        rng = np.random.default_rng(5)
+        cov = _coverage(1, 150, "gaussian", rng, database_points=7, pmf_points=101, interpolation=interpolation)
+        print(f"90% coverage with 7 database points, {interpolation}: {cov}")
+        assert 0.84 <= cov[0] <= 0.97  # binomial STD 2.4 % at 150 runs
 
 
 def test_large_grid_update():

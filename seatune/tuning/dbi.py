@@ -10,7 +10,8 @@ The belief over the loading parameters φ is a joint probability mass function (
 3. A2 eq. 9: a measurement whose prediction barely varies over the database is screened out.
 4. A2 eq. 10 / thesis eq. 3.5 (inverse-distance weights) or a Gaussian likelihood with the sampling
    variance of the measured statistic; the hypotheses are mixed with their PMF (thesis eq. 3.7).
-5. A2 step 6: the likelihood is interpolated multilinearly from the database grid to the PMF grid.
+5. A2 step 6: interpolation from the database grid to the PMF grid (the weights, or for the Gaussian
+   likelihood the predicted statistics; see below).
 6. A2 eqs. 12–13, A4 eq. 6: posterior = NO(prior ⊙ likelihood).
 
 Choices where the papers are silent, and deliberate deviations:
@@ -19,22 +20,17 @@ Choices where the papers are silent, and deliberate deviations:
   multiplies over sensors — as if every sensor saw its own sea state. All sensors see the same sea, so the
   default (``hypothesis_mixing="joint"``) is L = Σ_s PMF(θ_s) Π_j W_{j,s}; ``"per_sensor"`` is eq. 3.7.
   With one hypothesis the two agree.
-* Order of interpolation, product and mixture. A2 interpolates each sensor's weights on its own and
-  multiplies on the fine grid; the thesis interpolates each W_{j,s} before mixing. We keep that order
-  where it matters: the inverse-distance weights are interpolated per sensor and hypothesis (linear, as in
-  A2) and multiplied / mixed on the PMF grid. Mixing per sensor (eq. 3.7) is linear, so it is done on the
-  database grid first — same result, S times fewer interpolations. The Gaussian log-likelihood is
-  interpolated (below), and interpolation is linear, so Σ_j interp(log W_{j,s}) = interp(Σ_j log W_{j,s}):
-  one interpolation per hypothesis, exactly the per-sensor result.
-* Gaussian log-likelihood interpolation: log W = −(σ_pred − z)²/(2v) is smooth (nearly quadratic) in φ,
-  whereas W itself is a narrow bump that, linearly interpolated between database points, becomes a tent
-  and underflows far from its peak. Products and mixtures are formed in log space (log-sum-exp), so no
-  cell underflows before normalisation.
-* ``interpolation="cubic"`` (not in A2, Gaussian only; the default stays A2's multilinear): a tensor
-  not-a-knot spline of the log-likelihood. A multilinear interpolant sags by up to h²·curvature/8 between
-  database points h apart, which pulls the posterior onto the nodes once its STD is below h: with 7 points
-  over ±3σ the 90 % interval covered 49–59 % of the truths in the tests, 91–93 % with the spline (exact
-  for quadratics), as it does with the database as fine as the PMF grid.
+* What is interpolated. A2 step 6 interpolates each sensor's inverse-distance weights, and the thesis each
+  W_{j,s} before mixing; we keep that for the inverse-distance weights (linear, per sensor and hypothesis,
+  multiplied / mixed on the PMF grid; mixing per sensor, eq. 3.7, is linear, so it is done on the database
+  grid first — same result, S times fewer interpolations). The Gaussian likelihood instead interpolates the
+  predicted statistics σ_{j,s}(φ) (as A6 does, digest A5–A7 §2.9) and forms log W = −(σ − z)²/(2v) on the PMF
+  grid. σ is smooth and nearly linear between database points; a likelihood interpolated between them sags
+  by up to h²·curvature/8, which once the posterior is narrower than the database spacing puts it on the
+  database node that fits best (a 2-parameter A6 trial on the sample vessel ended on the node 4 m from the
+  truth). Products and mixtures are formed in log space (log-sum-exp), so no cell underflows.
+* ``interpolation="cubic"`` (not in A2): a tensor not-a-knot spline instead of the multilinear interpolant,
+  of the predictions (Gaussian) — it follows the curvature of σ(φ) where the linear one cuts corners.
 * Interpolation outside the database range takes the edge value (clamped). A2 does not say; the prior's
   ±3σ range can exceed the database range (β44, r55 in A2 Tables 6/18).
 * The inverse-distance weights get a guard ε·|z_j| (relative, so unit-free) against |σ_pred − z| = 0, and
@@ -113,6 +109,8 @@ def cubic_interpolation_matrix(nodes: ArrayLike, points: ArrayLike) -> np.ndarra
 def interpolate_tensor(values: ArrayLike, matrices: Sequence[np.ndarray]) -> np.ndarray:
     """Apply one matrix per axis: out[k_1…k_M] = Σ_i M_1[k_1, i_1] ⋯ M_M[k_M, i_M] values[i_1…i_M].
 
+    Leading axes beyond the M interpolated ones are a batch: values (B…, I_1…I_M) → out (K_1…K_M, B…).
+
     With `linear_interpolation_matrix` per axis this is multilinear interpolation onto a tensor grid
     (A2 step 6). Each step contracts the trailing axis with one matrix product and puts the new axis in
     front, so after M steps (last axis first) the axes are back in order and no transposed copy is made.
@@ -120,7 +118,7 @@ def interpolate_tensor(values: ArrayLike, matrices: Sequence[np.ndarray]) -> np.
     orientation, rest × K_m, ran 50× slower under multi-threaded OpenBLAS).
     """
     out = np.asarray(values, dtype=float)
-    if out.ndim != len(matrices):
+    if out.ndim < len(matrices):
         raise ValueError(f"{out.ndim}-D values but {len(matrices)} interpolation matrices")
     for mat in reversed(matrices):
         trail = out.shape[-1]
@@ -257,6 +255,7 @@ class DBI:
         self.joint_ = self._outer(marginals)
         self.alpha_: dict[str, float] = {}
         self.sea_state_posterior_: np.ndarray | None = None
+        self.hs_scale_: float | None = None
         self.n_updates_ = 0
         self._summary: Posterior | None = None
 
@@ -313,23 +312,25 @@ class DBI:
         keep = alpha >= self.screening_alpha
         used = tuple(n for n, k in zip(names, keep, strict=True) if k)
 
-        sea_post = None
+        sea_post, scale = None, None
         if keep.any():
             predicted, z, variance = predicted[..., keep], z[keep], variance[keep]
+            scaled, r2 = self._common_scale(used, z, observation, sea_state)
             log_prior = self._log(self.joint_)
-            log_like, log_evidence = self._log_likelihood(predicted, z, variance, hyp_weights, self.power, log_prior)
+            log_like, log_evidence, scale = self._log_likelihood(predicted, z, variance, hyp_weights, self.power,
+                                                                 log_prior, scaled, r2)
             posterior = self._bayes(log_prior, log_like)  # A2 eqs. 12–13, A4 eq. 6
             p2 = self.power_sea_state_dependent
             if p2 is not None and dependent:
                 # A4 §2.5 two-step: same prior, p2 for the sea-state-dependent marginals, p for the others.
-                log_like_2, _ = self._log_likelihood(predicted, z, variance, hyp_weights, p2, None)
+                log_like_2, _, _ = self._log_likelihood(predicted, z, variance, hyp_weights, p2, None)
                 posterior_2 = self._bayes(log_prior, log_like_2)
                 joint = posterior.sum(axis=dependent, keepdims=True)
                 for axis in dependent:
                     joint = joint * self._along(self._marginal(posterior_2, axis), axis)
                 posterior = joint / joint.sum()
             self.joint_ = posterior
-            if log_evidence is not None:  # p(θ_s | z) ∝ PMF(θ_s) Σ_φ PMF(φ) L_s(φ) (with p, not p2)
+            if predicted.shape[1] > 1:  # p(θ_s | z) ∝ PMF(θ_s) Σ_φ PMF(φ) L_s(φ) (with p, not p2)
                 with np.errstate(divide="ignore"):
                     log_post = np.log(hyp_weights) + log_evidence
                 sea_post = np.exp(log_post - _logsumexp(log_post))
@@ -337,7 +338,8 @@ class DBI:
             sea_post = hyp_weights  # nothing informative: the hypotheses keep their prior PMF
         self.sea_state_posterior_ = sea_post
         self.n_updates_ += 1
-        self._summary = self._summarise(used, sea_state, sea_post)
+        self.hs_scale_ = scale
+        self._summary = self._summarise(used, sea_state, sea_post, scale)
         return self._summary
 
     def posterior(self) -> Posterior:
@@ -371,24 +373,27 @@ class DBI:
             raise ValueError("forward model returned non-finite predictions on the database grid")
         return tuple(names[k] for k in keep), z[keep], variance[keep], predicted[..., keep]
 
+    def _gaussian_variance(self, z: np.ndarray, variance: np.ndarray) -> np.ndarray:
+        v = variance + (self.model_error * z) ** 2
+        bad = ~(v > 0)
+        if np.any(bad):
+            raise ValueError(f"gaussian likelihood needs a positive variance; got {v[bad]} "
+                             "(set model_error > 0 or use likelihood='idw')")
+        return v
+
     def _log_weights(self, predicted: np.ndarray, z: np.ndarray, variance: np.ndarray, power: float) -> np.ndarray:
         """log W_{r,s,j} on the database grid, (R, S, J)."""
         if self.likelihood == "gaussian":
-            v = variance + (self.model_error * z) ** 2
-            bad = ~(v > 0)
-            if np.any(bad):
-                raise ValueError(f"gaussian likelihood needs a positive variance; got {v[bad]} "
-                                 "(set model_error > 0 or use likelihood='idw')")
-            return -((predicted - z) ** 2) / (2.0 * v)  # log N(z; σ_pred, v) up to a constant in r and s
+            return -((predicted - z) ** 2) / (2.0 * self._gaussian_variance(z, variance))
         lw = -power * np.log(np.abs(predicted - z) + self.epsilon * np.abs(z))  # A2 eq. 10, thesis eq. 3.5
         return lw - (_logsumexp(lw, axis=0) - np.log(lw.shape[0]))  # 𝒩(·) over the database, to mean 1
 
     def _grid_log_likelihood(self, log_w: np.ndarray) -> np.ndarray:
         """log Π_j W_j on the PMF grid from log W_j on the database grid, (R, J) → (K_1, …, K_M)."""
         shape = self.database_points_per_axis
-        if self.likelihood == "gaussian":  # log space: Σ_j interp(log W_j) = interp(Σ_j log W_j)
+        if self.likelihood == "gaussian":  # per-sensor mixing only: Σ_j interp(log W_j) = interp(Σ_j log W_j)
             return interpolate_tensor(log_w.sum(axis=1).reshape(shape), self._to_pmf)
-        scale = log_w.max(axis=0)  # idw: each sensor's weights interpolated as in A2 step 6, then multiplied
+        scale = log_w.max(axis=0)  # each sensor's weights interpolated as in A2 step 6, then multiplied
         product = None
         for j in range(log_w.shape[1]):
             w = interpolate_tensor(np.exp(log_w[:, j] - scale[j]).reshape(shape), self._to_pmf)
@@ -396,29 +401,77 @@ class DBI:
         with np.errstate(divide="ignore"):
             return np.log(product) + scale.sum()
 
-    def _log_likelihood(self, predicted, z, variance, hyp_weights, power, log_prior):
-        """Mixed log-likelihood on the PMF grid and, given the log prior and several hypotheses,
-        log Σ_φ PMF(φ) L_s(φ) per hypothesis θ_s (for p(θ_s | z))."""
-        log_w = self._log_weights(predicted, z, variance, power)
-        n_hyp = log_w.shape[1]
-        if n_hyp == 1:
-            return self._grid_log_likelihood(log_w[:, 0, :]), None
+    def _gaussian_grid_log_likelihood(self, predicted: np.ndarray, z: np.ndarray, v: np.ndarray, scaled: np.ndarray,
+                                      r2: float) -> tuple[np.ndarray, np.ndarray | None]:
+        """Gaussian log-likelihood on the PMF grid with σ_j interpolated from the database, (R, J) → (K…).
+
+        With a common scale error (r2 > 0): z = a·σ + e, a ~ N(1, r2) for the σ measurements (`scaled`), e ~
+        N(0, diag v); marginalised by Sherman–Morrison with A = Σ d²/v, B = Σ σd/v, C = Σ σ²/v (d = z − σ):
+        log L = −½ [A − r2 B²/(1 + r2 C)] − ½ log(1 + r2 C). Also returns E[a | z, φ] = 1 + B/(1/r2 + C)."""
+        on_grid = interpolate_tensor(predicted.T.reshape(-1, *self.database_points_per_axis), self._to_pmf)
+        d = z - on_grid  # (K…, J)
+        inv_v = 1.0 / v
+        a = (d * d) @ inv_v
+        if not r2 > 0:
+            return -0.5 * a, None
+        w = np.where(scaled, inv_v, 0.0)
+        b = (on_grid * d) @ w
+        c = (on_grid * on_grid) @ w
+        return -0.5 * (a - r2 * b * b / (1.0 + r2 * c)) - 0.5 * np.log1p(r2 * c), 1.0 + b / (1.0 / r2 + c)
+
+    def _log_likelihood(self, predicted, z, variance, hyp_weights, power, log_prior, scaled=None, r2=0.0):
+        """Mixed log-likelihood on the PMF grid; given the log prior, also log Σ_φ PMF(φ) L_s(φ) per hypothesis
+        θ_s (for p(θ_s | z)) and, with a common scale error, its posterior mean E[a | z]."""
+        n_hyp = predicted.shape[1]
+        joint = self.hypothesis_mixing == "joint" or n_hyp == 1
+        if self.likelihood == "gaussian" and joint:
+            v = self._gaussian_variance(z, variance)
+
+            def grid_ll(s):
+                return self._gaussian_grid_log_likelihood(predicted[:, s, :], z, v, scaled, r2)
+        else:
+            log_w = self._log_weights(predicted, z, variance, power)
+
+            def grid_ll(s):
+                return self._grid_log_likelihood(log_w[:, s, :]), None
         with np.errstate(divide="ignore"):
             log_pi = np.log(hyp_weights)
-        joint = self.hypothesis_mixing == "joint"
-        log_like, log_evidence = None, None
+        log_like, log_evidence, scale_means = None, np.full(n_hyp, -np.inf), np.full(n_hyp, np.nan)
         if joint or log_prior is not None:
-            log_evidence = np.full(n_hyp, -np.inf)
             for s in np.flatnonzero(hyp_weights > 0):
-                log_l_s = self._grid_log_likelihood(log_w[:, s, :])  # log Π_j W_{j,s} on the PMF grid
+                log_l_s, a_hat = grid_ll(s)  # log Π_j W_{j,s} on the PMF grid
                 if log_prior is not None:
-                    log_evidence[s] = _logsumexp(log_prior + log_l_s)
+                    log_post_s = log_prior + log_l_s
+                    log_evidence[s] = _logsumexp(log_post_s)
+                    if a_hat is not None:
+                        scale_means[s] = np.sum(np.exp(log_post_s - log_evidence[s]) * a_hat)
                 if joint:  # L = Σ_s PMF(θ_s) Π_j W_{j,s}
                     log_l_s += log_pi[s]
                     log_like = log_l_s if log_like is None else np.logaddexp(log_like, log_l_s, out=log_like)
         if not joint:  # thesis eq. 3.7: W_j = Σ_s PMF(θ_s) W_{j,s}, mixed on the database grid (linear in W)
             log_like = self._grid_log_likelihood(_logsumexp(log_w + log_pi[None, :, None], axis=1))
-        return log_like, (log_evidence if log_prior is not None else None)
+        if log_prior is None:
+            return log_like, None, None
+        log_sea = log_pi + log_evidence
+        sea_weights = np.exp(log_sea - _logsumexp(log_sea))
+        scale = float(sea_weights @ np.nan_to_num(scale_means)) if np.isfinite(scale_means).any() else None
+        return log_like, log_evidence, scale
+
+    @staticmethod
+    def _common_scale(names, z, observation: Observation, sea_state: SeaState) -> tuple[np.ndarray, float]:
+        """Which measurements scale with Hs (σ, not Tz) and the variance r2 of their common relative error:
+        the observation's common sampling factor, plus the hindcast's Hs uncertainty when the hypotheses do not
+        vary Hs (σ ∝ Hs, so it is marginalised exactly instead of by discrete points)."""
+        scaled = np.array([n.endswith(":sigma") for n in names])
+        if not scaled.any():
+            return scaled, 0.0
+        r2 = float(observation.common_scale_variance)
+        if "hs" in sea_state.names:
+            k = sea_state.names.index("hs")
+            hs = np.asarray(sea_state.points, dtype=float)[:, k]
+            if np.ptp(hs) == 0 and hs[0] > 0:
+                r2 += float(np.asarray(sea_state.cov, dtype=float)[k, k]) / hs[0] ** 2
+        return scaled, r2
 
     @staticmethod
     def _bayes(log_prior: np.ndarray, log_like: np.ndarray) -> np.ndarray:
@@ -433,7 +486,8 @@ class DBI:
 
     # ------------------------------------------------------------------ summary
 
-    def _summarise(self, used: tuple[str, ...], sea_state: SeaState | None, sea_post: np.ndarray | None) -> Posterior:
+    def _summarise(self, used: tuple[str, ...], sea_state: SeaState | None, sea_post: np.ndarray | None,
+                   scale: float | None = None) -> Posterior:
         joint, m = self.joint_, len(self.parameters)
         marginals = [self._marginal(joint, a) for a in range(m)]
         mean = np.array([g @ p for g, p in zip(self.grids, marginals, strict=True)])  # A4 eq. 19b
@@ -445,11 +499,14 @@ class DBI:
         quantiles = {q: np.array([_quantile(g, p, q) for g, p in zip(self.grids, marginals, strict=True)])
                      for q in QUANTILES}
         sea_mean = sea_cov = None
-        if sea_post is not None and sea_state is not None:
+        if sea_state is not None and (sea_post is not None or scale is not None):
             theta = _unwrap_angles(np.asarray(sea_state.points, dtype=float), sea_state.names, sea_state.mean)
-            sea_mean = sea_post @ theta
+            if scale is not None:  # the common scale a multiplies Hs (E[a | z] from the Gaussian likelihood)
+                theta[:, sea_state.names.index("hs")] *= scale
+            weights = sea_post if sea_post is not None else np.ones(1)
+            sea_mean = weights @ theta
             d = theta - sea_mean
-            sea_cov = (d * sea_post[:, None]).T @ d
+            sea_cov = (d * weights[:, None]).T @ d
         return Posterior(names=self.names, mean=mean, cov=cov, quantiles=quantiles, used=used,
                          sea_state_mean=sea_mean, sea_state_cov=sea_cov,
                          marginals={n: (g.copy(), p) for n, g, p in zip(self.names, self.grids, marginals,

@@ -61,6 +61,8 @@ class Observation:
 
     variance: sampling variance of each z[j] for this record length (from the Welch degrees of freedom);
     used by the calibrated Gaussian likelihood (DBI) and as a floor for R (UKF).
+    common_scale_variance: relative variance of a factor common to every σ̂ of the window — one sea realisation
+    drives all channels, so their sampling errors are largely one factor (the realised Hs), not independent.
     """
 
     window_id: str
@@ -68,6 +70,7 @@ class Observation:
     z: np.ndarray
     variance: np.ndarray
     duration_s: float
+    common_scale_variance: float = 0.0
 
 
 class ForwardModel(Protocol):
