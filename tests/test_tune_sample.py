@@ -60,10 +60,30 @@ def test_tune_runs_end_to_end_and_improves_held_out_prediction(filtered, backend
     assert model.spec.loading.r44 == pytest.approx(last.loc["r44", "mean"])
 
 
+@pytest.mark.parametrize("backend", ["dbi", "ukf"])
+def test_tune_with_sea_state_dependent_damping(filtered, backend):
+    # A4: β44's prior in each window comes from the GPR of the windows before; the held-out window's β44 is
+    # the GPR's prediction at its own sea state.
+    path = sample_run(filtered, backend=backend, parameters=["gmt_fs", "r44", "beta44"],
+                      damping_gpr={"enabled": True})
+    res = run_cli("tune", path, "--force", "tune")
+    assert res.returncode == 0, res.stderr
+    val = pd.read_parquet(filtered / "run" / "validation.parquet")
+    roll = val[(val.role == "holdout") & val.measurement.str.startswith("roll")]
+    err_prior = np.abs(np.log(roll.predicted_prior / roll.measured)).mean()
+    err_tuned = np.abs(np.log(roll.predicted_tuned / roll.measured)).mean()
+    print(f"{backend} + GPR: held-out roll σ error {err_prior:.3f} → {err_tuned:.3f}")
+    assert err_tuned < 0.7 * err_prior
+    hist = pd.read_parquet(filtered / "run" / "tuning_history.parquet")
+    b44 = hist[hist.parameter == "beta44"].set_index("update")
+    assert b44.loc[2, "std"] < b44.loc[0, "std"]
+
+
 @pytest.mark.parametrize("tuning, needle", [
     ({"backend": "dbl"}, "tuning.backend"),
     ({"parameters": ["r45"]}, "tuning.parameters"),
     ({"parameters": ["ycg"]}, "has no prior"),
+    ({"parameters": ["r44"], "damping_gpr": {"enabled": True}}, "tuning.damping_gpr"),
 ])
 def test_bad_tuning_config_exits_2_with_one_line(tmp_path, tuning, needle):
     path = sample_run(tmp_path, **tuning)

@@ -88,9 +88,9 @@ class DbiSettings(Strict):
     power: PositiveFloat = 0.4  # IDW power p (A2 eq. 10)
     screening_alpha: Annotated[float, Field(ge=0)] = 0.05  # α0 (A2 eq. 9)
     model_error: Annotated[float, Field(ge=0)] = 0.05  # relative model-error std added to the σ̂ sampling variance
-    # database → PMF grid: linear (A2); cubic is calibrated on smooth synthetic problems (tests/test_tuning_dbi.py)
-    # but its overshoot of a steep log-likelihood put the sample's posterior in a corner — not the default
-    interpolation: Literal["linear", "cubic"] = "linear"
+    # database → PMF grid (of the predicted σ for the Gaussian likelihood): cubic follows σ's curvature in β44
+    # (an A6 trial: β44 0.043 vs 0.063 linear, truth 0.040); idw always interpolates its weights linearly (A2)
+    interpolation: Literal["linear", "cubic"] = "cubic"
     hypothesis_mixing: Literal["joint", "per_sensor"] = "joint"  # per_sensor = thesis eq. 3.7
 
 
@@ -102,6 +102,16 @@ class UkfSettings(Strict):
     q_fraction: Annotated[float, Field(ge=0)] = 0.1  # Q std as a fraction of each prior std
 
 
+class DampingGprSettings(Strict):
+    """Sea-state-dependent β44 (A4): a GPR over (Hs·|sin β|, ω_p) gives each window's β44 prior."""
+
+    enabled: bool = False
+    # prior mean / σ_f: None takes the vessel's β44 prior (A4 eq. 23 uses 0.07 and 0.02)
+    prior_mean: float | None = None
+    sigma_f: PositiveFloat | None = None
+    length_scales: tuple[PositiveFloat, PositiveFloat] = (0.7, 0.2)  # m, rad/s (A4 Table 5)
+
+
 class TuningSettings(Strict):
     backend: Literal["dbi", "ukf"] = "dbi"
     parameters: list[str] = Field(default=["r44", "beta44"], min_length=1)  # priors from the vessel YAML
@@ -110,6 +120,7 @@ class TuningSettings(Strict):
     holdout_every: Annotated[int, Field(ge=0)] = 3  # every k-th accepted window is held out for validation (0: none)
     dbi: DbiSettings = DbiSettings()
     ukf: UkfSettings = UkfSettings()
+    damping_gpr: DampingGprSettings = DampingGprSettings()
 
     @field_validator("parameters")
     @classmethod

@@ -41,7 +41,39 @@ def tuning_parameters(run, vessel):
             out.append(Parameter(name, float(prior.mean), float(prior.std), float(lo), float(hi)))
         except ValueError as err:
             raise UserError(str(vessel.source), f"priors.{name}", str(err)) from None
+    if run.spec.tuning.damping_gpr.enabled and "beta44" not in run.spec.tuning.parameters:
+        raise UserError(str(run.path), "tuning.damping_gpr", "needs beta44 among tuning.parameters")
     return out
+
+
+def damping_gpr(settings, parameters):
+    """The A4 GPR of β44, or None when tuning.damping_gpr is off."""
+    if not settings.enabled:
+        return None
+    from seatune.tuning.damping_gpr import DampingGPR
+
+    prior = next(p for p in parameters if p.name == "beta44")
+    return DampingGPR(prior_mean=prior.prior_mean if settings.prior_mean is None else settings.prior_mean,
+                      sigma_f=prior.prior_std if settings.sigma_f is None else settings.sigma_f,
+                      length_scales=settings.length_scales)
+
+
+def update_with_gpr(backend, gpr, model, obs, sea):
+    """One backend update; with the GPR, β44's belief is first replaced by its prediction at this sea state
+    (A4 §4.1 step 1, A4 eq. 18) and the posterior β44 is then stored as a GPR sample (step 5)."""
+    if gpr is None:
+        return backend.update(model, obs, sea)
+    from seatune.tuning.damping_gpr import gpr_inputs
+
+    x = gpr_inputs(*sea.mean[:3])
+    mean, std = (float(v[0]) for v in gpr.predict(x))
+    if backend.name == "dbi":
+        post = backend.update(model, obs, sea, fresh_marginals={"beta44": backend.gaussian_pmf("beta44", mean, std)})
+    else:
+        post = backend.update(model, obs, sea, fresh={"beta44": (mean, std**2)})
+    i = post.names.index("beta44")
+    gpr.add(x[0], float(post.mean[i]), max(float(post.cov[i, i]), 1e-12))
+    return post
 
 
 def make_backend(settings, parameters):
@@ -61,14 +93,18 @@ def make_backend(settings, parameters):
 
 
 def sea_state(theta0: np.ndarray, std: np.ndarray):
-    """Gaussian θ' and its 27 discrete hypotheses (product of 3-point Gauss–Hermite rules)."""
+    """Gaussian θ' = (Hs, Tp, β) and 9 discrete hypotheses over (Tp, β) (3-point Gauss–Hermite rules each).
+
+    Hs stays at its mean in the hypotheses: σ ∝ Hs, so the DBI's Gaussian likelihood marginalises its
+    uncertainty (cov) exactly as a common scale instead of by three points (A5 eq. 3.7 with Hs continuous)."""
     from seatune.tuning.forward import SEA_STATE_NAMES
     from seatune.tuning.interface import SeaState
 
-    grids = np.meshgrid(*[GH_NODES] * 3, indexing="ij")
-    points = theta0[None, :] + np.stack([g.ravel() for g in grids], axis=1) * std[None, :]
-    points[:, :2] = np.maximum(points[:, :2], 1e-3)
-    weights = np.prod(np.meshgrid(*[GH_WEIGHTS] * 3, indexing="ij"), axis=0).ravel()
+    tp, beta = np.meshgrid(GH_NODES, GH_NODES, indexing="ij")
+    points = np.repeat(theta0[None, :], tp.size, axis=0)
+    points[:, 1] = np.maximum(theta0[1] + tp.ravel() * std[1], 1e-3)
+    points[:, 2] = theta0[2] + beta.ravel() * std[2]
+    weights = np.outer(GH_WEIGHTS, GH_WEIGHTS).ravel()
     return SeaState(SEA_STATE_NAMES, theta0, np.diag(std**2), points, weights / weights.sum())
 
 
@@ -109,7 +145,10 @@ def window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, name
             value = float(st.loc[ch, stat])
             z.append(value)
             var.append(value**2 / (2 * nu))  # Var σ̂ ≈ σ²/(2ν) (delta method on χ²_ν); Tz: same relative error
-        obs = Observation(str(row.window_id), tuple(names), np.array(z), np.array(var), float(row.duration_s))
+        z, var = np.array(z), np.array(var)
+        sig = np.array([n.endswith(":sigma") for n in names])
+        common = float(np.median(var[sig] / z[sig] ** 2)) if sig.any() else 0.0  # one sea drives every channel
+        obs = Observation(str(row.window_id), tuple(names), z, var, float(row.duration_s), common)
         out.append((str(row.window_id), model, obs, sea_state(theta0, std)))
     return out
 
@@ -179,15 +218,20 @@ def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
     if "train" not in roles:
         roles[0] = "train"
     backend = make_backend(settings, parameters)
+    gpr = damping_gpr(settings.damping_gpr, parameters)
     rows = history_rows(0, "", backend.name, backend.posterior())
     for i, ((wid, model, obs, sea), role) in enumerate(zip(inputs, roles, strict=True)):
         if role == "train":
-            rows += history_rows(i + 1, wid, backend.name, backend.update(model, obs, sea))
+            rows += history_rows(i + 1, wid, backend.name, update_with_gpr(backend, gpr, model, obs, sea))
     post = backend.posterior()
     prior_phi = np.array([[p.prior_mean for p in parameters]])
-    tuned_phi = post.mean[None, :]
     val = []
     for (wid, model, obs, sea), role in zip(inputs, roles, strict=True):
+        tuned_phi = post.mean[None, :].copy()
+        if gpr is not None:  # β44 of this window's sea state
+            from seatune.tuning.damping_gpr import gpr_inputs
+
+            tuned_phi[0, post.names.index("beta44")] = gpr.predict(gpr_inputs(*sea.mean[:3]))[0][0]
         pred = model.predict(np.vstack([prior_phi, tuned_phi]), sea.mean[None, :])[:, 0, :]
         val += [{"window_id": wid, "role": role, "measurement": n, "measured": float(obs.z[j]),
                  "predicted_prior": float(pred[0, j]), "predicted_tuned": float(pred[1, j])}
