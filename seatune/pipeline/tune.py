@@ -22,9 +22,10 @@ from seatune.errors import UserError
 HISTORY_UNITS = {"update": "", "window_id": "", "backend": "", "parameter": "", "mean": "", "std": "", "q05": "",
                  "q50": "", "q95": "", "channels_used": ""}
 VALIDATION_UNITS = {"window_id": "", "role": "", "measurement": "", "measured": "", "predicted_prior": "",
-                    "predicted_tuned": ""}
+                    "predicted_tuned": "", "informative": ""}
 GH_NODES = np.array([-np.sqrt(3.0), 0.0, np.sqrt(3.0)])  # 3-point Gauss–Hermite (probabilists'): exact to 5th moment
 GH_WEIGHTS = np.array([1 / 6, 2 / 3, 1 / 6])
+INFORMATIVE_ALPHA = 0.05  # a channel is informative on the tuned parameters if its prior spread ≥ 5 % (A2 eq. 9)
 
 
 def tuning_parameters(run, vessel):
@@ -225,6 +226,7 @@ def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
             rows += history_rows(i + 1, wid, backend.name, update_with_gpr(backend, gpr, model, obs, sea))
     post = backend.posterior()
     prior_phi = np.array([[p.prior_mean for p in parameters]])
+    design = prior_design(parameters)
     val = []
     for (wid, model, obs, sea), role in zip(inputs, roles, strict=True):
         tuned_phi = post.mean[None, :].copy()
@@ -233,8 +235,10 @@ def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
 
             tuned_phi[0, post.names.index("beta44")] = gpr.predict(gpr_inputs(*sea.mean[:3]))[0][0]
         pred = model.predict(np.vstack([prior_phi, tuned_phi]), sea.mean[None, :])[:, 0, :]
+        spread = model.predict(design, sea.mean[None, :])[:, 0, :].std(axis=0, ddof=1) / obs.z  # A2 eq. 9
         val += [{"window_id": wid, "role": role, "measurement": n, "measured": float(obs.z[j]),
-                 "predicted_prior": float(pred[0, j]), "predicted_tuned": float(pred[1, j])}
+                 "predicted_prior": float(pred[0, j]), "predicted_tuned": float(pred[1, j]),
+                 "informative": bool(spread[j] >= INFORMATIVE_ALPHA)}
                 for j, n in enumerate(names)]
     history, validation = pd.DataFrame(rows, columns=list(HISTORY_UNITS)), pd.DataFrame(val)
     meta = {"fingerprint": fp}
@@ -244,10 +248,23 @@ def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
     held = validation[validation["role"] == "holdout"]
     held = held if len(held) else validation
 
-    def err(col):
-        return float(np.mean(np.abs(np.log(held[col] / held["measured"]))))
+    informative = held[held["informative"]]
+
+    def err(rows, col):
+        return float(np.mean(np.abs(np.log(rows[col] / rows["measured"])))) if len(rows) else float("nan")
 
     return {"skipped": False, "backend": backend.name, "windows": roles.count("train"),
             "holdout": roles.count("holdout"), "posterior": dict(zip(post.names, zip(post.mean, post.std,
                                                                                          strict=True), strict=True)),
-            "error_prior": err("predicted_prior"), "error_tuned": err("predicted_tuned")}
+            "error_prior": err(held, "predicted_prior"), "error_tuned": err(held, "predicted_tuned"),
+            "informative": sorted({m.split(":")[0] for m in informative["measurement"]}),
+            "error_prior_informative": err(informative, "predicted_prior"),
+            "error_tuned_informative": err(informative, "predicted_tuned")}
+
+
+def prior_design(parameters) -> np.ndarray:
+    """The prior mean and ±√3σ along each parameter (clipped to its bounds): (2p + 1, p)."""
+    mean = np.array([p.prior_mean for p in parameters])
+    step = np.sqrt(3.0) * np.diag([p.prior_std for p in parameters])
+    lo, hi = np.array([p.lower for p in parameters]), np.array([p.upper for p in parameters])
+    return np.clip(np.vstack([mean, mean + step, mean - step]), lo, hi)
