@@ -106,7 +106,7 @@ def cubic_interpolation_matrix(nodes: ArrayLike, points: ArrayLike) -> np.ndarra
     return CubicSpline(nodes, np.eye(nodes.size), bc_type="not-a-knot")(x)
 
 
-def interpolate_tensor(values: ArrayLike, matrices: Sequence[np.ndarray]) -> np.ndarray:
+def interpolate_tensor(values: ArrayLike, matrices: Sequence[np.ndarray], dtype=float) -> np.ndarray:
     """Apply one matrix per axis: out[k_1…k_M] = Σ_i M_1[k_1, i_1] ⋯ M_M[k_M, i_M] values[i_1…i_M].
 
     Leading axes beyond the M interpolated ones are a batch: values (B…, I_1…I_M) → out (K_1…K_M, B…).
@@ -117,7 +117,7 @@ def interpolate_tensor(values: ArrayLike, matrices: Sequence[np.ndarray]) -> np.
     The product is (K_m × I_m) @ (I_m × rest): a wide result, which BLAS threads well (the transposed
     orientation, rest × K_m, ran 50× slower under multi-threaded OpenBLAS).
     """
-    out = np.asarray(values, dtype=float)
+    out = np.asarray(values, dtype=dtype)
     if out.ndim < len(matrices):
         raise ValueError(f"{out.ndim}-D values but {len(matrices)} interpolation matrices")
     for mat in reversed(matrices):
@@ -248,6 +248,7 @@ class DBI:
         self.database_points = np.stack([g.ravel() for g in mesh], axis=1)  # (R, M), A2 eq. 7
         matrix = linear_interpolation_matrix if interpolation == "linear" else cubic_interpolation_matrix
         self._to_pmf = [matrix(d, g) for d, g in zip(self.database_grids, self.grids, strict=True)]
+        self._to_pmf32 = [m.astype(np.float32) for m in self._to_pmf]
 
         # A2 eqs. 2–4: independent Gaussian priors, joint = product of the discretised marginals.
         marginals = [discretised_gaussian(g, p.prior_mean, p.prior_std) for g, p in zip(self.grids, self.parameters,
@@ -408,15 +409,17 @@ class DBI:
         With a common scale error (r2 > 0): z = a·σ + e, a ~ N(1, r2) for the σ measurements (`scaled`), e ~
         N(0, diag v); marginalised by Sherman–Morrison with A = Σ d²/v, B = Σ σd/v, C = Σ σ²/v (d = z − σ):
         log L = −½ [A − r2 B²/(1 + r2 C)] − ½ log(1 + r2 C). Also returns E[a | z, φ] = 1 + B/(1/r2 + C)."""
-        on_grid = interpolate_tensor(predicted.T.reshape(-1, *self.database_points_per_axis), self._to_pmf)
-        d = z - on_grid  # (K…, J)
-        inv_v = 1.0 / v
-        a = (d * d) @ inv_v
+        # float32: σ keeps 7 digits, so (σ − z)²/v errs by < 1e-3 where the posterior lives (2.5× faster)
+        on_grid = interpolate_tensor(predicted.T.reshape(-1, *self.database_points_per_axis), self._to_pmf32,
+                                     dtype=np.float32)
+        d = z.astype(np.float32) - on_grid  # (K…, J)
+        inv_v = (1.0 / v).astype(np.float32)
+        a = ((d * d) @ inv_v).astype(float)
         if not r2 > 0:
             return -0.5 * a, None
-        w = np.where(scaled, inv_v, 0.0)
-        b = (on_grid * d) @ w
-        c = (on_grid * on_grid) @ w
+        w = np.where(scaled, inv_v, 0.0).astype(np.float32)
+        b = ((on_grid * d) @ w).astype(float)
+        c = ((on_grid * on_grid) @ w).astype(float)
         return -0.5 * (a - r2 * b * b / (1.0 + r2 * c)) - 0.5 * np.log1p(r2 * c), 1.0 + b / (1.0 / r2 + c)
 
     def _log_likelihood(self, predicted, z, variance, hyp_weights, power, log_prior, scaled=None, r2=0.0):
