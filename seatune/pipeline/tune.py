@@ -20,7 +20,7 @@ import yaml
 from seatune.errors import UserError
 
 HISTORY_UNITS = {"update": "", "window_id": "", "backend": "", "parameter": "", "mean": "", "std": "", "q05": "",
-                 "q50": "", "q95": "", "channels_used": ""}
+                 "q50": "", "q95": "", "channels_used": "", "marginal_grid": "", "marginal_pmf": ""}
 VALIDATION_UNITS = {"window_id": "", "role": "", "measurement": "", "measured": "", "predicted_prior": "",
                     "predicted_tuned": "", "informative": ""}
 GH_NODES = np.array([-np.sqrt(3.0), 0.0, np.sqrt(3.0)])  # 3-point Gauss–Hermite (probabilists'): exact to 5th moment
@@ -155,10 +155,18 @@ def window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, name
 
 
 def history_rows(update: int, window_id: str, backend: str, post) -> list[dict]:
-    return [{"update": update, "window_id": window_id, "backend": backend, "parameter": name,
-             "mean": float(post.mean[i]), "std": float(post.std[i]), "q05": float(post.quantiles[0.05][i]),
-             "q50": float(post.quantiles[0.5][i]), "q95": float(post.quantiles[0.95][i]),
-             "channels_used": ",".join(post.used)} for i, name in enumerate(post.names)]
+    """One row per parameter: summary, the covariance row (cov_<parameter>) and the DBI marginal PMF."""
+    rows = []
+    for i, name in enumerate(post.names):
+        grid, pmf = post.marginals.get(name, (None, None))
+        rows.append({"update": update, "window_id": window_id, "backend": backend, "parameter": name,
+                     "mean": float(post.mean[i]), "std": float(post.std[i]), "q05": float(post.quantiles[0.05][i]),
+                     "q50": float(post.quantiles[0.5][i]), "q95": float(post.quantiles[0.95][i]),
+                     "channels_used": ",".join(post.used),
+                     "marginal_grid": None if grid is None else [float(v) for v in grid],
+                     "marginal_pmf": None if pmf is None else [float(v) for v in pmf],
+                     **{f"cov_{other}": float(post.cov[i, j]) for j, other in enumerate(post.names)}})
+    return rows
 
 
 def tuned_vessel_yaml(vessel, post, path: Path) -> None:
@@ -240,9 +248,10 @@ def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
                  "predicted_prior": float(pred[0, j]), "predicted_tuned": float(pred[1, j]),
                  "informative": bool(spread[j] >= INFORMATIVE_ALPHA)}
                 for j, n in enumerate(names)]
-    history, validation = pd.DataFrame(rows, columns=list(HISTORY_UNITS)), pd.DataFrame(val)
+    cov_units = {f"cov_{p.name}": "" for p in parameters}  # parameter unit × other parameter's unit
+    history, validation = pd.DataFrame(rows, columns=[*HISTORY_UNITS, *cov_units]), pd.DataFrame(val)
     meta = {"fingerprint": fp}
-    write_table(history, outs[0], HISTORY_UNITS, meta)
+    write_table(history, outs[0], {**HISTORY_UNITS, **cov_units}, meta)
     write_table(validation, outs[1], VALIDATION_UNITS, meta)
     tuned_vessel_yaml(vessel, post, tuned_path)
     held = validation[validation["role"] == "holdout"]
