@@ -633,7 +633,8 @@ def truncate(
     Returns
     -------
     pathlib.Path
-        The damaged file or directory. Not atomic, on purpose.
+        The damaged file or directory. Damage in place is not atomic, on purpose; a damaged copy at `dest` (a
+        file) appears atomically.
     """
     if not 0.0 < keep_fraction <= 1.0:
         raise ValueError(f"keep_fraction must be in (0, 1], got {keep_fraction}")
@@ -657,12 +658,14 @@ def truncate(
     keep = int(src.stat().st_size * keep_fraction)
     if dest is None:
         os.truncate(src, keep)
-    else:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        with open(src, "rb") as fi, open(target, "wb") as fo:
+        if crash:
+            _unindex_ros1_bag(target)
+        return target
+    with atomic_path(target) as tmp:  # the damaged copy appears whole (the damage itself is deliberate)
+        with open(src, "rb") as fi, open(tmp, "wb") as fo:
             fo.write(fi.read(keep))
-    if crash:
-        _unindex_ros1_bag(target)
+        if crash:
+            _unindex_ros1_bag(tmp)
     return target
 
 

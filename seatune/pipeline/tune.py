@@ -251,9 +251,9 @@ def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
     cov_units = {f"cov_{p.name}": "" for p in parameters}  # parameter unit × other parameter's unit
     history, validation = pd.DataFrame(rows, columns=[*HISTORY_UNITS, *cov_units]), pd.DataFrame(val)
     meta = {"fingerprint": fp}
+    tuned_vessel_yaml(vessel, post, tuned_path)  # first: the Parquet fingerprints then vouch for it too
     write_table(history, outs[0], {**HISTORY_UNITS, **cov_units}, meta)
     write_table(validation, outs[1], VALIDATION_UNITS, meta)
-    tuned_vessel_yaml(vessel, post, tuned_path)
     held = validation[validation["role"] == "holdout"]
     held = held if len(held) else validation
 
