@@ -1,0 +1,410 @@
+"""report.html from the run's tables: the sections an engineer reads instead of the Parquet files."""
+
+from __future__ import annotations
+
+import html
+import re
+
+import numpy as np
+import pandas as pd
+
+from seatune.report import html as H
+from seatune.report import plots as P
+from seatune.report.inputs import ReportInputs
+from seatune.report.summary import (
+    DOFS,
+    PARAMETER_UNITS,
+    defect_counts,
+    derived_values,
+    posterior_table,
+    primary_natural_frequencies,
+)
+
+# What ingest did about each defect it counts (seatune/pipeline/motions.py, ingest.py)
+DEFECTS = {
+    "non_monotonic_repaired": "timestamps earlier than the previous one: rows put back in time order (repaired)",
+    "duplicates_removed": "repeated timestamps: the first received kept, the repeats dropped (repaired)",
+    "missing_stamps_removed": "rows without a timestamp dropped",
+    "imu_samples_without_orientation": "IMU messages without an orientation: attitude masked (NaN)",
+    "gnss_no_fix_removed": "GNSS messages without a position fix dropped",
+    "gaps_split": "logging gaps longer than ingest.max_gap_s: the record is split, nothing invented across",
+    "samples_interpolated": "grid samples interpolated across missing samples of a source (within max_gap_s)",
+    "samples_masked": "grid samples a source leaves empty inside a record (masked, NaN)",
+    "samples_outside_imu": "samples before the first / after the last IMU sample trimmed",
+}
+
+
+def _pct(x: float) -> str:
+    return "–" if not np.isfinite(x) else f"{100 * x:.1f} %"
+
+
+def _num(x: float, digits: int = 4) -> str:
+    return H.fmt(float(x), digits)
+
+
+def summary_section(inp: ReportInputs, row: dict, units: dict[str, str]) -> str:
+    c = inp.ingest_meta.get("counts") or {}
+    defects = sum(defect_counts(inp.ingest_meta).values())
+    best = primary_natural_frequencies(inp.natural_frequencies)
+    tiles = [
+        ("vessel", inp.vessel_name, inp.vessel_file),
+        ("logged", f"{row['hours_logged']:.2f} h",
+         f"{row['samples']:,} samples in {c.get('records', '?')} record(s), "
+         f"{inp.time_span[0]:%Y-%m-%d %H:%M} → {inp.time_span[1]:%H:%M} UTC"),
+        ("windows accepted", f"{row['windows_accepted']} of {row['windows_candidates']}",
+         f"{row['accepted_minutes']:.0f} min free floating; {row['windows_low_confidence']} low-confidence"),
+        ("hindcast", f"{len(inp.waves)} times at the track", inp.hindcast),
+        ("input defects", f"{defects:,} repaired / masked",
+         f"{len(inp.ingest_meta.get('truncated_logs') or [])} truncated log(s), "
+         f"{len(inp.ingest_meta.get('warnings') or [])} warning(s)"),
+    ]
+    if "Roll" in best.index:
+        r = best.loc["Roll"]
+        tiles.append(("roll natural frequency", f"{r['omega_n']:.3f} rad/s",
+                      f"95 % [{r['ci_low']:.3f}, {r['ci_high']:.3f}]; prior model {r['model_prior']:.3f} "
+                      f"(T = {2 * np.pi / r['omega_n']:.1f} s)"))
+    if row.get("backend"):
+        tiles.append(("tuning backend", row["backend"].upper(),
+                      f"{row['train_windows']} update(s), {row['holdout_windows']} held-out window(s)"))
+        tiles.append(("held-out σ error", f"{_pct(row['holdout_sigma_error_prior'])} → "
+                                          f"{_pct(row['holdout_sigma_error_tuned'])}",
+                      "mean |ln(predicted/measured)|, prior → tuned model, all channels"))
+        if np.isfinite(row.get("holdout_sigma_error_informative_prior", np.nan)):
+            tiles.append(("held-out σ error, tuned channels",
+                          f"{_pct(row['holdout_sigma_error_informative_prior'])} → "
+                          f"{_pct(row['holdout_sigma_error_informative_tuned'])}",
+                          "channels the tuned parameters move by ≥ 5 % over the prior (A2 eq. 9)"))
+    body = H.cards(tiles)
+    body += H.table(pd.DataFrame({"log": inp.logs}), caption="Logs") + H.para(f"Run file: {inp.run_file}")
+    post = posterior_table(inp.history)
+    if len(post):
+        pt = pd.DataFrame({"parameter": post.index, "unit": [PARAMETER_UNITS.get(p, "") for p in post.index],
+                           "prior mean": post["prior_mean"].to_numpy(), "prior std": post["prior_std"].to_numpy(),
+                           "posterior mean": post["mean"].to_numpy(), "posterior std": post["std"].to_numpy(),
+                           "5 %": post["q05"].to_numpy(), "95 %": post["q95"].to_numpy()})
+        body += H.table(pt, caption="Tuned loading parameters (units as in the vessel YAML)")
+    figures = pd.DataFrame({"figure": list(row), "value": [H.fmt(v) for v in row.values()],
+                            "unit": [units.get(k, "") for k in row]})
+    body += H.details("All key figures (the row of summary.parquet)", H.table(figures))
+    return H.section("summary", "Run summary", body)
+
+
+def defects_section(inp: ReportInputs) -> str:
+    counts = defect_counts(inp.ingest_meta)
+    rows = [{"defect": k.replace("_", " "), "count": v, "what ingest did": DEFECTS.get(k, "counted")}
+            for k, v in counts.items()]
+    body = H.table(pd.DataFrame(rows, columns=["defect", "count", "what ingest did"]),
+                   caption="Defect counts recorded by ingest (motions.parquet metadata)",
+                   row_class=lambda r: "flag" if r["count"] else "")
+    truncated = inp.ingest_meta.get("truncated_logs") or []
+    body += (H.note(f"{len(truncated)} log(s) cut short (read up to the cut): {', '.join(map(str, truncated))}")
+             if truncated else H.para("No log was cut short.", ""))
+    warnings = inp.ingest_meta.get("warnings") or []
+    body += "".join(H.note(f"warning: {w}") for w in warnings) if warnings else H.para("Ingest raised no warning.", "")
+    return H.section("defects", "Input defects repaired or masked", body,
+                     "Nothing is dropped silently: every repair, mask and cut that ingest made to the logs is "
+                     "counted here (DESIGN §6). Highlighted rows are non-zero.")
+
+
+def windows_section(inp: ReportInputs) -> str:
+    w = inp.windows
+    max_sog = (inp.settings.get("windows") or {}).get("max_sog")
+    body = H.figure(P.png(P.timeline(inp.track, w, inp.waves, max_sog)),
+                    "Speed over ground [m/s], heading [deg, clockwise from North] and the hindcast's Hs [m] / Tp [s] "
+                    "at the track against time [UTC]. Shaded: candidate windows, green accepted (free floating, "
+                    "stationary), grey rejected; labels W<id> as in the table.", "timeline of windows")
+    body += H.figure(P.png(P.track_map(inp.track, w)),
+                     "GNSS track [deg]; accepted windows in colour with their heading and hindcast Hs, rejected "
+                     "windows labelled in grey.", "track with windows")
+    days = pd.DatetimeIndex(w["start"]).normalize().nunique()
+    clock = "%m-%d %H:%M:%S" if days > 1 else "%H:%M:%S"
+    t = pd.DataFrame({"window": "W" + w["window_id"].astype(str), "start": w["start"].dt.strftime(clock),
+                      "end": w["end"].dt.strftime(clock),
+                      "duration": w["duration_s"] / 60.0, "accepted": w["accepted"], "reason": w["reason"],
+                      "heading": w["heading_deg"], "SOG": w["sog"], "Hs": w["hs"], "Tp": w["tp"],
+                      "waves from": w["dir_from_deg"]})
+    units = {"start": "UTC", "end": "UTC", "duration": "min", "heading": "deg", "SOG": "m/s", "Hs": "m", "Tp": "s",
+             "waves from": "deg"}
+    day = "" if days > 1 else f" on {w['start'].iloc[0]:%Y-%m-%d}"
+    body += H.table(t, units, caption=f"Candidate windows (windows.parquet), times UTC{day}", digits=3,
+                    wide=("reason",), row_class=lambda r: "" if r["accepted"] else "rejected")
+    return H.section("windows", "Windows", body,
+                     f"{int(w['accepted'].sum())} of {len(w)} candidate windows are free floating and stationary; "
+                     "a rejected window says why.")
+
+
+def filter_section(inp: ReportInputs) -> str:
+    st = inp.window_stats.copy()
+    st["window"] = "W" + st["window_id"].astype(str)
+
+    def pivot(col: str, factor_of=None) -> pd.DataFrame:
+        v = st[col] * (st["channel"].map(factor_of) if factor_of else 1.0)
+        p = st.assign(v=v).pivot(index="window", columns="channel", values="v")
+        p = p[list(dict.fromkeys(st["channel"]))]
+        return p.reset_index()
+
+    cut = pivot("cutoff_hz")
+    units_c = {c: "Hz" for c in cut.columns if c != "window"}
+    clamped = st[st["clamped"]] if "clamped" in st else st.iloc[:0]
+    body = H.table(cut, units_c, caption="Adaptive lowpass cutoff per window × channel (Han A3) [Hz]", digits=3)
+    if len(clamped):
+        body += H.note("cutoff clamped to the search range: " + ", ".join(
+            f"W{r.window_id} {r.channel}" for r in clamped.itertuples()))
+    factors = {c: P.display_unit(inp.channel_unit(c))[0] for c in st["channel"].unique()}
+    sig = pivot("sigma", factors)
+    units_s = {c: P.display_unit(inp.channel_unit(c))[1] for c in sig.columns if c != "window"}
+    body += H.table(sig, units_s, caption="Filtered standard deviation σ per window × channel (angles in deg)")
+    tz = pivot("tz")
+    body += H.details("Zero-crossing period Tz [s] and SNR per window × channel",
+                      H.table(tz, {c: "s" for c in tz.columns if c != "window"}, caption="Tz [s]", digits=3)
+                      + H.table(pivot("snr"), caption="SNR estimate [-]", digits=3))
+    return H.section("filter", "Filter cutoffs and statistics", body,
+                     "Per accepted window and channel: the lowpass cutoff chosen from the signal itself, and the σ "
+                     "and Tz of the filtered signal that tuning uses as observations.")
+
+
+def sea_name(beta_deg: float) -> str:
+    """Plain name of a model wave direction β (DESIGN §3: going-to, from body +x; 180° head, 90° from starboard)."""
+    b = beta_deg % 360.0
+    off = abs(b - 180.0)
+    side = "" if off <= 22.5 or off >= 157.5 else (" from starboard" if b < 180.0 else " from port")
+    name = ("head" if off <= 22.5 else "bow quartering" if off <= 67.5 else "beam" if off <= 112.5
+            else "stern quartering" if off < 157.5 else "following")
+    return f"{name} seas{side}"
+
+
+def _sector_title(part: pd.DataFrame) -> tuple[str, str]:
+    r = part.iloc[0]
+    wins = " + ".join(f"W{w}" for w in str(r["window_id"]).split("+"))
+    title = (f"β = {r['sector_deg']:.0f}° sector ({sea_name(r['sector_deg'])}), Hs bin {r['hs_bin_m']:g} m: "
+             f"{wins}")
+    return title, wins
+
+
+def raos_section(inp: ReportInputs) -> str:
+    raos = inp.raos
+    agg = raos[raos["scope"] == "aggregate"].copy()
+    if inp.tuned_raos is not None and len(inp.tuned_raos):
+        agg = agg.merge(inp.tuned_raos[["window_id", "channel", "omega", "model_tuned"]],
+                        on=["window_id", "channel", "omega"], how="left")
+    units = {c: inp.channel_unit(c) for c in raos["channel"].unique()}
+    body = ""
+    if inp.tuned_note:
+        body += H.note(inp.tuned_note)
+    if agg.empty:
+        body += H.note("No aggregate RAO: every window was low-confidence or none was accepted.")
+    for (_, _), part in agg.groupby(["sector_deg", "hs_bin_m"], sort=True):
+        title, wins = _sector_title(part)
+        body += f"<h3>{H.esc(title)}</h3>"
+        body += H.figure(P.png(P.rao_sector(part, units)),
+                         "Effective RAO |H| = √(S_xx/S_ζζ) in the window's directional sea: measured (dots) with its "
+                         "confidence interval (grey band: χ² sampling error and hindcast Hs/Tp error), the model with "
+                         "the prior loading (blue dashed) and with the tuned loading (orange). Units: channel unit per "
+                         "metre of wave amplitude, angles in deg/m; ω in rad/s.", f"RAOs {wins}")
+    low = raos[(raos["scope"] == "window") & raos["low_confidence"]].drop_duplicates("window_id")
+    if len(low):
+        body += H.table(pd.DataFrame({"window": "W" + low["window_id"].astype(str), "reason": low["reason"]}),
+                        caption="Low-confidence windows (left out of the aggregates)")
+    else:
+        body += H.para("No window was flagged low-confidence.", "")
+    return H.section("raos", "Measured vs model RAOs", body,
+                     "Accepted windows are combined per sector of the mean wave direction β and Hs bin "
+                     "(β: direction the waves travel towards, from the bow, counter-clockwise; 180° = head seas, "
+                     "90° = waves from starboard).")
+
+
+def natural_frequencies_section(inp: ReportInputs, tuned: dict[str, float] | None) -> str:
+    nf = inp.natural_frequencies
+    body = H.figure(P.png(P.natural_frequency_plot(nf, tuned)),
+                    "Natural frequencies ω_n [rad/s] per window with their 95 % interval and combined over windows "
+                    "(diamonds), against the model with the prior loading (blue dashed) and the tuned loading "
+                    "(orange).",
+                    "natural frequencies")
+    best = primary_natural_frequencies(nf)
+    rows = []
+    for dof in DOFS:
+        if dof not in best.index:
+            continue
+        r = best.loc[dof]
+        rows.append({"DOF": dof, "ω_n": r["omega_n"], "95 % interval": f"{r['ci_low']:.3f} – {r['ci_high']:.3f}",
+                     "T_n": 2 * np.pi / r["omega_n"], "ζ": r["zeta"], "prior ω_n": r["model_prior"],
+                     "measured vs prior": (r["omega_n"] / r["model_prior"] - 1),
+                     "tuned ω_n": (tuned or {}).get(dof, np.nan), "method": r["method"].replace("_", " ")})
+    t = pd.DataFrame(rows)
+    units = {"ω_n": "rad/s", "95 % interval": "rad/s", "T_n": "s", "ζ": "-", "prior ω_n": "rad/s",
+             "tuned ω_n": "rad/s", "measured vs prior": "%"}
+    body += H.table(t, units, caption="Combined natural frequencies (ζ: damping ratio of the SDOF fit)",
+                    formats={"measured vs prior": _pct}, digits=4)
+    derived = derived_values(nf)
+    if derived:
+        d = pd.DataFrame([{"derived from ω_n": label, "value": v, "std": s, "unit": u}
+                          for v, s, u, label in derived.values()])
+        body += H.table(d, caption="Loading parameters implied by the natural frequencies (with the known values of "
+                                   "identify.known)")
+    return H.section("natural-frequencies", "Natural frequencies", body)
+
+
+def history_pmfs(history: pd.DataFrame) -> dict | None:
+    """{parameter: [(update, grid, pmf), ...]} when the history carries the backend's marginal PMFs."""
+    gcol = next((c for c in ("marginal_grid", "pmf_grid", "grid") if c in history), None)
+    pcol = next((c for c in ("marginal_pmf", "pmf", "marginal") if c in history), None)
+    if gcol is None or pcol is None:
+        return None
+    out: dict = {}
+    for r in history.sort_values("update").itertuples():
+        g, p = getattr(r, gcol), getattr(r, pcol)
+        if g is None or p is None or len(g) != len(p) or len(g) < 2:
+            return None
+        out.setdefault(r.parameter, []).append((r.update, np.asarray(g, float), np.asarray(p, float)))
+    return out
+
+
+def history_correlation(history: pd.DataFrame) -> tuple[list[str], np.ndarray] | None:
+    """Posterior correlation after the last update when the history carries `cov_<p>` or `corr_<p>` columns."""
+    params = list(dict.fromkeys(history["parameter"]))
+    for prefix in ("corr_", "cov_"):
+        cols = [f"{prefix}{p}" for p in params]
+        if all(c in history for c in cols):
+            last = history[history["update"] == history["update"].max()].set_index("parameter").reindex(params)
+            m = last[cols].to_numpy(dtype=float)
+            if prefix == "cov_":
+                s = np.sqrt(np.clip(np.diag(m), 1e-300, None))
+                m = m / np.outer(s, s)
+            return params, m
+    return None
+
+
+def tuning_section(inp: ReportInputs) -> str:
+    h = inp.history
+    if h is None or h.empty:
+        return H.section("tuning", "Tuning", H.note("tuning_history.parquet is absent: the run was not tuned."))
+    units = {p: PARAMETER_UNITS.get(p, "") for p in h["parameter"].unique()}
+    backend = str(h["backend"].iloc[0])
+    body = H.figure(P.png(P.convergence(h, units)),
+                    "Posterior of each tuned loading parameter after each training window (update 0 = prior): mean, "
+                    "±1σ band and 5–95 % interval; units as in the vessel YAML (β44 as a fraction of critical "
+                    "damping).", "tuning convergence")
+    pmfs = history_pmfs(h)
+    body += "<h3>" + ("DBI marginals" if backend == "dbi" else "Marginals") + "</h3>"
+    if pmfs is None:
+        body += H.para("tuning_history.parquet carries no marginal PMF: the marginals below are the Gaussians with "
+                       "the recorded mean and std; ticks on the axis mark the backend's own 5 % and 95 % quantiles.",
+                       "")
+    body += H.figure(P.png(P.marginals(h, units, pmfs)),
+                     "Marginal probability density of each parameter after each update ([1/parameter unit]).",
+                     "marginals")
+    corr = history_correlation(h)
+    body += "<h3>" + ("UKF covariance" if backend == "ukf" else "Posterior correlation") + "</h3>"
+    if corr is not None:
+        body += H.figure(P.png(P.correlation(corr[0], corr[1], "posterior correlation after the last update")),
+                         "Correlation of the tuned parameters after the last update [-].", "correlation")
+    else:
+        body += H.para("tuning_history.parquet carries no covariance (no cov_<parameter> columns): not shown.", "")
+    t = h.copy()
+    t["unit"] = t["parameter"].map(units)
+    t = t[["update", "window_id", "parameter", "unit", "mean", "std", "q05", "q50", "q95", "channels_used"]]
+    body += H.details("Tuning history (tuning_history.parquet)", H.table(t))
+    return H.section("tuning", f"Tuning ({backend.upper()})", body)
+
+
+def validation_section(inp: ReportInputs) -> str:
+    v = inp.validation
+    if v is None or v.empty:
+        return H.section("validation", "Validation", H.note("validation.parquet is absent."))
+    units = {c: inp.channel_unit(c) for c in v["measurement"].str.split(":").str[0].unique()}
+    body = H.figure(P.png(P.validation_plots(v, units)),
+                    "Measured σ against the model's prediction with the prior (blue) and tuned (orange) loading; "
+                    "open markers: held-out windows not used in tuning. Left: ratio predicted/measured [-] (band "
+                    "0.8–1.25). Right: values in the channel unit (angles in deg, rates in deg/s, specific force in "
+                    "m/s²).", "validation")
+    ch = v["measurement"].str.split(":").str[0]
+    stat = v["measurement"].str.split(":").str[1]
+    f = np.where(stat == "tz", 1.0, ch.map(lambda c: P.display_unit(units.get(c, ""))[0]).to_numpy(dtype=float))
+    unit = np.where(stat == "tz", "s", ch.map(lambda c: P.display_unit(units.get(c, ""))[1]))
+    t = pd.DataFrame({"window": "W" + v["window_id"].astype(str), "role": v["role"], "measurement": v["measurement"],
+                      "unit": unit, "measured": v["measured"] * f, "prior": v["predicted_prior"] * f,
+                      "tuned": v["predicted_tuned"] * f,
+                      "prior error": v["predicted_prior"] / v["measured"] - 1,
+                      "tuned error": v["predicted_tuned"] / v["measured"] - 1})
+    body += H.table(t, {"prior error": "%", "tuned error": "%"},
+                    caption="Validation (validation.parquet); error = predicted/measured − 1",
+                    formats={"prior error": _pct, "tuned error": _pct},
+                    row_class=lambda r: "flag" if r["role"] == "holdout" else "")
+    return H.section("validation", "Validation", body,
+                     "Every accepted window predicted with the prior and the tuned loading; every third window (by "
+                     "`tuning.holdout_every`) is held out of tuning and validates it.")
+
+
+def diagnosis_section(inp: ReportInputs) -> str | None:
+    d = inp.diagnosis
+    if d is None:
+        return None
+    cells = d.copy()
+    for c in cells.columns:  # lists / dicts (fitted parameters) as text
+        if cells[c].map(lambda x: isinstance(x, list | tuple | dict | np.ndarray)).any():
+            cells[c] = cells[c].map(lambda x: ", ".join(map(str, x)) if isinstance(x, list | tuple | np.ndarray)
+                                    else (", ".join(f"{k}={v}" for k, v in x.items()) if isinstance(x, dict) else x))
+    body = H.table(cells, inp.diagnosis_units, caption="Candidate effects (diagnosis.parquet)") if len(d) else \
+        H.note("diagnosis.parquet has no row.")
+    return H.section("diagnosis", "Diagnosis", body,
+                     "Where the tuned model still disagrees with the measurements: the candidate physical effects, "
+                     "their evidence and the gap before / after each.")
+
+
+def prediction_section(inp: ReportInputs) -> str | None:
+    """seatune predict (Han A5): exceedance probability against heading at the riskiest forecast time."""
+    pred = inp.prediction
+    if pred is None or pred.empty:
+        return None
+    first = pred.iloc[0]
+    unit = inp.prediction_units.get("limit", "")
+    tuned = pred[pred["model"] == "tuned"] if (pred["model"] == "tuned").any() else pred
+    worst_time = tuned.groupby("time")["optimal_probability"].max().idxmax()
+    at = pred[pred["time"] == worst_time]
+    what = (f"P(max {first['channel']} > {first['limit']:g} {unit} in {first['duration_s'] / 3600:g} h) [%] at "
+            f"{pd.Timestamp(worst_time):%Y-%m-%d %H:%M} UTC")
+    body = H.figure(P.png(P.exceedance_polar(at, what)),
+                    "Probability that the largest response of the sea state exceeds the limit, against compass heading "
+                    "(north up, clockwise), mixed over the remaining loading uncertainty and the forecast's Hs/Tp/"
+                    "direction hypotheses (A5 eqs. 3.11–3.12); dots: the advised heading (eq. 3.13).",
+                    "exceedance against heading")
+    best = pred[pred["is_optimal"]].copy()
+    table = best.pivot_table(index="time", columns="model", values=["optimal_heading_deg", "optimal_probability"],
+                             aggfunc="first")
+    table.columns = [f"{'heading' if a == 'optimal_heading_deg' else 'P'} ({m})" for a, m in table.columns]
+    table = table.reset_index()
+    table["time"] = table["time"].map(lambda t: f"{pd.Timestamp(t):%Y-%m-%d %H:%M}")
+    fmt = {c: (lambda v: f"{100 * v:.1f} %") for c in table.columns if c.startswith("P ")}
+    fmt.update({c: (lambda v: f"{v:.0f}°") for c in table.columns if c.startswith("heading")})
+    body += H.table(table, caption="Advised heading and its exceedance probability per forecast time "
+                                   "(prediction.parquet)", formats=fmt)
+    return H.section("prediction", "Prediction", body,
+                     "Decision support from the tuned model: how likely the critical response exceeds its limit in "
+                     "the coming sea states, and the heading that minimises it — with the prior model beside it, so "
+                     "the value of tuning shows.")
+
+
+def artefacts_section(inp: ReportInputs) -> str:
+    t = pd.DataFrame(inp.artefacts, columns=["file", "size", "fingerprint"])
+    t["size"] = t["size"] / 1024.0
+    return H.section("artefacts", "Artefacts", H.table(t, {"size": "kB"}, formats={"size": lambda v: f"{v:,.1f}"}),
+                     "The run directory this page was built from; the fingerprint is the hash of each stage's inputs "
+                     "and settings.")
+
+
+def build_report(inp: ReportInputs, row: dict, units: dict[str, str]) -> str:
+    """The HTML page (a string)."""
+    parts = [summary_section(inp, row, units), defects_section(inp), windows_section(inp), filter_section(inp),
+             raos_section(inp), natural_frequencies_section(inp, inp.tuned_omega_n), tuning_section(inp),
+             validation_section(inp), prediction_section(inp), diagnosis_section(inp), artefacts_section(inp)]
+    sections = []
+    for body in parts:
+        if body is None:
+            continue
+        m = re.match(r'<section id="([^"]+)"><h2>(.*?)</h2>', body)
+        sections.append((m.group(1), html.unescape(m.group(2)), body))
+    subtitle = (f"vessel {inp.vessel_name} · {inp.time_span[0]:%Y-%m-%d} · {row['hours_logged']:.1f} h logged · "
+                f"{row['windows_accepted']} of {row['windows_candidates']} windows accepted")
+    footer = (f"seatune {H.esc(inp.version)} · inputs fingerprint <code>{H.esc(inp.fingerprint)}</code> · "
+              f"run file {H.esc(inp.run_file)}. Files keep SI units and radians; this page shows angles in degrees.")
+    return H.page(f"seatune report — run {inp.run_name}", subtitle, sections, footer, inp.fingerprint)

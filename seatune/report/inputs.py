@@ -1,0 +1,51 @@
+"""Everything the report is built from, already read from the run directory (no I/O past this point)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import pandas as pd
+
+
+@dataclass
+class ReportInputs:
+    """The run's artefacts as tables, plus the few facts about the run that are not in them.
+
+    track: motions.parquet thinned to ~1 Hz: time, record, lat, lon [deg], sog [m/s], heading_deg.
+    tuned_raos: the tuned model's effective RAO on the aggregate rows of raos.parquet (scope, window_id, channel,
+    omega, model_tuned), or None when it could not be computed (`tuned_note` says why).
+    Optional artefacts (tuning, validation, diagnosis) are None when absent.
+    """
+
+    run_name: str
+    run_file: str
+    vessel_name: str
+    vessel_file: str
+    logs: list[str]
+    hindcast: str
+    settings: dict  # the run YAML as validated (RunSpec.model_dump())
+    version: str
+    fingerprint: str
+    samples: int
+    time_span: tuple[pd.Timestamp, pd.Timestamp]
+    ingest_meta: dict  # motions.parquet metadata: counts, warnings, truncated_logs
+    motion_units: dict[str, str]
+    track: pd.DataFrame
+    waves: pd.DataFrame
+    windows: pd.DataFrame
+    window_stats: pd.DataFrame
+    raos: pd.DataFrame
+    natural_frequencies: pd.DataFrame
+    history: pd.DataFrame | None = None
+    validation: pd.DataFrame | None = None
+    tuned_raos: pd.DataFrame | None = None
+    tuned_note: str = ""
+    tuned_omega_n: dict[str, float] | None = None  # the tuned model's uncoupled ω_n by DOF [rad/s]
+    prediction: pd.DataFrame | None = None  # prediction.parquet (seatune predict)
+    prediction_units: dict[str, str] = field(default_factory=dict)
+    diagnosis: pd.DataFrame | None = None
+    diagnosis_units: dict[str, str] = field(default_factory=dict)
+    artefacts: list[tuple[str, int, str]] = field(default_factory=list)  # (file, bytes, fingerprint)
+
+    def channel_unit(self, channel: str) -> str:
+        return self.motion_units.get(channel, "")

@@ -1,0 +1,237 @@
+"""`seatune report` on sample_logs/ through the CLI: the page is self-contained, its plots decode, it loads in
+headless Chromium without console errors and is not blank; summary.parquet against the committed golden key
+figures (tests/golden/sample_summary.json, `make golden`), which a deliberate physics change breaks."""
+
+import base64
+import html
+import io
+import json
+import os
+import re
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+import yaml
+
+from seatune.report.golden import compare, read_summary
+from tests.conftest import ROOT
+from tests.test_pipeline_sample import run_cli
+from tests.test_tune_sample import sample_run
+
+GOLDEN = ROOT / "tests" / "golden" / "sample_summary.json"
+CHROMIUM = Path("/usr/bin/chromium")
+SECTIONS = ("summary", "defects", "windows", "filter", "raos", "natural-frequencies", "tuning", "validation",
+            "artefacts")
+
+
+@pytest.fixture(scope="module")
+def reported(tmp_path_factory):
+    """The whole pipeline once, ingest → report, on the sample run in a temporary run directory."""
+    tmp = tmp_path_factory.mktemp("report")
+    path = sample_run(tmp)
+    res = run_cli("report", path)
+    assert res.returncode == 0, res.stderr
+    return tmp / "run", path, res.stdout
+
+
+def images(page: str) -> list[bytes]:
+    return [base64.b64decode(b) for b in re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', page)]
+
+
+def test_report_line_ends_with_the_page_path(reported):
+    out, _, stdout = reported
+    lines = stdout.strip().splitlines()
+    assert [ln.split(":")[0] for ln in lines] == ["ingest", "windows", "filter", "identify", "tune", "report"]
+    assert lines[-1].endswith(str(out / "report.html"))
+    assert (out / "report.html").is_file() and (out / "summary.parquet").is_file()
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary left behind
+
+
+def test_page_is_self_contained_and_its_plots_decode(reported):
+    from PIL import Image
+
+    out, _, _ = reported
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert not re.search(r'(src|href)\s*=\s*["\']?\s*(https?:)?//', page, re.I)  # nothing fetched from outside
+    assert "<script" not in page.lower() and "@import" not in page and "url(" not in page
+    for anchor in SECTIONS:
+        assert f'<section id="{anchor}">' in page, anchor
+    assert 'id="diagnosis"' not in page  # no diagnosis.parquet: the section is left out
+    pngs = images(page)
+    assert len(pngs) == page.count("<img ") >= 8
+    for data in pngs:
+        im = Image.open(io.BytesIO(data))
+        im.load()
+        assert im.format == "PNG" and im.size[0] >= 400 and im.size[1] >= 200
+        assert np.asarray(im.convert("L"), dtype=float).std() > 5  # something drawn
+    # every ingest defect count is on the page (DESIGN §6: counted in the report)
+    counts = json.loads(pq.read_schema(out / "motions.parquet").metadata[b"seatune"])["counts"]
+    for key, n in counts.items():
+        if key != "records":
+            assert re.search(rf"<td>{key.replace('_', ' ')}</td><td class=\"num\">{n:,}</td>", page), key
+    # every window and its reason for rejection
+    windows = pd.read_parquet(out / "windows.parquet")
+    for row in windows.itertuples():
+        assert f"<td>W{row.window_id}</td>" in page and html.escape(row.reason) in page
+
+
+def test_summary_row_and_units(reported):
+    out, _, _ = reported
+    summary = pd.read_parquet(out / "summary.parquet")
+    assert len(summary) == 1
+    row = summary.iloc[0]
+    units = {f.name: (f.metadata or {}).get(b"unit", b"").decode() for f in pq.read_schema(out / "summary.parquet")}
+    assert units["hours_logged"] == "h" and units["omega_n_roll"] == "rad/s" and units["derived_displacement"] == "t"
+    assert units["posterior_mean_r44"] == "m" and units["posterior_std_r44"] == "m"
+    windows = pd.read_parquet(out / "windows.parquet")
+    assert row["windows_candidates"] == len(windows) and row["windows_accepted"] == windows["accepted"].sum()
+    assert row["backend"] == "dbi" and row["run"] == "sample"
+    hist = pd.read_parquet(out / "tuning_history.parquet")
+    last = hist[hist["update"] == hist["update"].max()].set_index("parameter")
+    assert row["posterior_mean_r44"] == pytest.approx(last.loc["r44", "mean"])
+    meta = json.loads(pq.read_schema(out / "summary.parquet").metadata[b"seatune"])
+    assert meta["fingerprint"] and "tuning_history.parquet" in meta["inputs"]
+
+
+def test_tuned_model_path_reproduces_the_prior_model_of_identify(reported):
+    """The report's RAO recomputation, fed the prior loading, gives identify's model_prior on every aggregate row."""
+    from seatune.io.run_yaml import Run
+    from seatune.pipeline.report import tuned_model_raos
+    from seatune.pipeline.vessel import open_vessel
+
+    out, path, _ = reported
+    run = Run(path)
+    vessel = open_vessel(run.vessel_path)
+    raos = pd.read_parquet(out / "raos.parquet")
+    motions = pd.read_parquet(out / "motions.parquet", columns=["time", "lat", "lon"])
+    got = tuned_model_raos(run, vessel, vessel.base_loading, pd.read_parquet(out / "windows.parquet"), motions, raos)
+    agg = raos[raos["scope"] == "aggregate"].merge(got, on=["window_id", "channel", "omega"], how="left")
+    assert len(agg) and agg["model_tuned"].notna().all()
+    np.testing.assert_allclose(agg["model_tuned"], agg["model_prior"], rtol=1e-9)
+
+
+def test_up_to_date_report_is_skipped_and_diagnosis_joins_when_present(reported, tmp_path):
+    from seatune.io.parquet import write_table
+
+    out, path, _ = reported
+    res = run_cli("report", path)
+    assert res.returncode == 0 and res.stdout.strip().splitlines()[-1].startswith("report: up to date (skipped)")
+    shutil.copytree(out, tmp_path / "run")  # a copy: the module's run stays without diagnosis
+    data = yaml.safe_load(Path(path).read_text())
+    data["run_dir"] = str(tmp_path / "run")
+    copy = tmp_path / "run.yaml"
+    copy.write_text(yaml.safe_dump(data))
+    diag = pd.DataFrame({"effect": ["imu_misalignment", "quadratic_roll_damping"], "evidence": [12.5, -1.0],
+                         "parameters": [[0.4, -0.2], [0.0]], "gap_before": [0.21, 0.21], "gap_after": [0.06, 0.2]})
+    write_table(diag, tmp_path / "run" / "diagnosis.parquet",
+                {"effect": "", "evidence": "", "parameters": "deg", "gap_before": "", "gap_after": ""})
+    res = run_cli("report", copy)
+    assert res.returncode == 0, res.stderr
+    assert "tune: up to date" in res.stdout and "diagnosis included" in res.stdout.splitlines()[-1]
+    page = (tmp_path / "run" / "report.html").read_text(encoding="utf-8")
+    assert '<section id="diagnosis">' in page and "imu_misalignment" in page and "[deg]" in page
+
+
+def test_prediction_joins_the_report_when_present(reported, tmp_path):
+    out, path, _ = reported
+    shutil.copytree(out, tmp_path / "run")
+    data = yaml.safe_load(Path(path).read_text())
+    data["run_dir"] = str(tmp_path / "run")
+    copy = tmp_path / "run.yaml"
+    copy.write_text(yaml.safe_dump(data))
+    res = run_cli("predict", copy, "--forecast", data["hindcast"]["path"])
+    assert res.returncode == 0, res.stderr
+    res = run_cli("report", copy)
+    assert res.returncode == 0, res.stderr
+    page = (tmp_path / "run" / "report.html").read_text(encoding="utf-8")
+    section = page[page.index('<section id="prediction">'):]
+    section = section[:section.index("</section>")]
+    assert "Advised heading" in section and "P (tuned)" in section and "P (prior)" in section
+    assert len(images(section)) == 1
+
+
+def test_report_stage_alone_on_an_empty_run_dir_is_a_user_error(tmp_path):
+    from seatune.errors import UserError
+    from seatune.io.run_yaml import Run
+    from seatune.pipeline.report import report_stage
+    from seatune.pipeline.vessel import open_vessel
+
+    run = Run(sample_run(tmp_path))
+    with pytest.raises(UserError, match="motions.parquet is missing"):
+        report_stage(run, open_vessel(run.vessel_path))
+
+
+def _chromium_page(html_path: Path, screenshot: Path):
+    """Load the page in headless Chromium; (console errors, failed or outside requests, broken images)."""
+    from playwright.sync_api import sync_playwright
+
+    errors, outside = [], []
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=[
+            "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+            "--disable-component-update", "--disable-sync", "--no-first-run"])
+        try:
+            page = browser.new_page(viewport={"width": 1280, "height": 900})
+            page.on("console", lambda m: errors.append(f"{m.type}: {m.text}") if m.type == "error" else None)
+            page.on("pageerror", lambda e: errors.append(f"pageerror: {e}"))
+            page.on("requestfailed", lambda r: errors.append(f"request failed: {r.url}"))
+            page.on("request", lambda r: outside.append(r.url) if not r.url.startswith(("file:", "data:")) else None)
+            page.goto(html_path.as_uri(), wait_until="load")
+            broken = page.evaluate("Array.from(document.images).filter(i => !i.complete || i.naturalWidth === 0)"
+                                   ".length")
+            n_images = page.evaluate("document.images.length")
+            page.screenshot(path=str(screenshot), full_page=True)
+        finally:
+            browser.close()
+    return errors, outside, broken, n_images
+
+
+def test_page_loads_in_headless_chromium(reported, tmp_path):
+    from PIL import Image
+
+    if not CHROMIUM.exists():
+        msg = "chromium is not installed (apt-get install chromium; .ci/run does it)"
+        pytest.fail(msg) if os.environ.get("CI") else pytest.skip(msg)
+    out, _, _ = reported
+    shot = tmp_path / "report.png"
+    errors, outside, broken, n_images = _chromium_page(out / "report.html", shot)
+    assert errors == [] and outside == []
+    assert n_images >= 8 and broken == 0  # every plot rendered
+    im = np.asarray(Image.open(shot).convert("L"), dtype=float)
+    assert im.shape[0] > 3000 and im.shape[1] >= 1200  # the whole page, not an empty viewport
+    assert im.std() > 20 and (im < 128).mean() > 0.01  # not blank: text and plots on a light page
+
+
+def test_key_figures_match_the_golden_summary(reported):
+    out, _, _ = reported
+    golden = json.loads(GOLDEN.read_text())
+    assert compare(read_summary(out / "summary.parquet"), golden) == []
+
+
+def test_a_physics_change_breaks_the_golden_summary(reported, tmp_path):
+    """Added mass 15 % higher in a copy of the hydro database: the natural frequencies and the tuned loading move
+    outside their golden tolerances."""
+    import xarray as xr
+
+    ds = xr.load_dataset(ROOT / "configs" / "vessels" / "sample_osv_hydro.nc")
+    for name in ("added_mass", "added_mass_inf"):
+        ds[name] = ds[name] * 1.15
+    ds.to_netcdf(tmp_path / "hydro.nc")
+    vessel = yaml.safe_load((ROOT / "configs" / "vessels" / "sample_osv.yaml").read_text())
+    vessel["hydro_database"] = "hydro.nc"
+    (tmp_path / "vessel.yaml").write_text(yaml.safe_dump(vessel))
+    _, path, _ = reported
+    data = yaml.safe_load(Path(path).read_text())
+    data["vessel"], data["run_dir"] = str(tmp_path / "vessel.yaml"), str(tmp_path / "run")
+    (tmp_path / "run.yaml").write_text(yaml.safe_dump(data))
+    res = run_cli("report", tmp_path / "run.yaml")
+    assert res.returncode == 0, res.stderr
+    assert "ingest: up to date" not in res.stdout
+    broken = compare(read_summary(tmp_path / "run" / "summary.parquet"), json.loads(GOLDEN.read_text()))
+    names = {b.split(":")[0] for b in broken}
+    assert {"omega_n_heave_prior", "omega_n_roll_prior", "omega_n_pitch_prior", "derived_displacement",
+            "posterior_mean_r44"} <= names, broken
