@@ -6,9 +6,11 @@ Paths are relative to the run YAML. See README "Run YAML" for every key.
 from __future__ import annotations
 
 import glob
+from datetime import datetime
 from pathlib import Path
 from typing import Annotated, Literal
 
+import numpy as np
 from pydantic import Field, field_validator
 
 from seatune.errors import UserError
@@ -128,6 +130,41 @@ class TuningSettings(Strict):
         return check_loading_names(v)
 
 
+class PredictSettings(Strict):
+    """`seatune predict` (Han A5 RESP / RISK): the critical response, its limit and the exposure time."""
+
+    channel: str  # vessel channel name (checked against the vessel when predicting)
+    limit: PositiveFloat  # in the channel's units
+    duration_s: PositiveFloat = 10800.0  # sea-state duration the maximum is taken over (3 h)
+    # a step [deg] (headings 0, step, … < 360) or an explicit list of compass headings [deg]
+    headings_deg: float | list[float] = 5.0
+    position: tuple[float, float] | None = None  # [lat, lon] deg; default: the last logged position
+    times: list[datetime] | None = None  # UTC (naive = UTC); default: every forecast time step
+    uncertainty: HindcastUncertainty | None = None  # forecast errors; default: hindcast.uncertainty
+
+    @field_validator("headings_deg")
+    @classmethod
+    def _headings(cls, v):
+        if isinstance(v, list) and not (v and all(0.0 <= h < 360.0 for h in v)):
+            raise ValueError("give a step in (0, 90] degrees or a non-empty list of headings in [0, 360)")
+        if not isinstance(v, list) and not 0.0 < v <= 90.0:
+            raise ValueError("a heading step must be in (0, 90] degrees")
+        return v
+
+    @field_validator("position")
+    @classmethod
+    def _position(cls, v):
+        if v is not None and not (-90.0 <= v[0] <= 90.0 and -180.0 <= v[1] <= 360.0):
+            raise ValueError("position must be [lat, lon] in degrees (lat in [-90, 90])")
+        return v
+
+    def heading_grid(self) -> list[float]:
+        if isinstance(self.headings_deg, list):
+            return sorted(set(float(h) for h in self.headings_deg))
+        step = float(self.headings_deg)
+        return [float(h) for h in step * np.arange(int(np.ceil(360.0 / step - 1e-9)))]
+
+
 class RunSpec(Strict):
     name: str
     run_dir: str
@@ -141,6 +178,7 @@ class RunSpec(Strict):
     filter: FilterSettings = FilterSettings()
     identify: IdentifySettings = IdentifySettings()
     tuning: TuningSettings = TuningSettings()
+    predict: PredictSettings | None = None
 
 
 class Run:
