@@ -14,12 +14,11 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
-# The main job on the embedded default: the sample vessel and sample_logs/ through ingest → windows →
-# filter → identify (later stages extend it to the report).
+# The main job on the embedded default: the sample vessel, then every stage on sample_logs/ (ingest → windows →
+# filter → identify → tune → report; those already up to date are skipped); ends with the report's path.
 run: $(STAMP)
 	$(BIN)/seatune vessel info configs/vessels/sample_osv.yaml
-	$(BIN)/seatune tune configs/runs/sample.yaml
-	@echo "artefacts in runs/sample/"
+	$(BIN)/seatune run configs/runs/sample.yaml
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
@@ -33,6 +32,13 @@ bench: $(STAMP)
 # Regenerate the committed sample trial from its scenario (deterministic: the seed is in the YAML).
 sample: $(STAMP)
 	$(BIN)/seatune simulate configs/scenarios/sample_trial.yaml --out sample_logs
+
+# Regenerate the golden key figures (tests/golden/sample_summary.json) that `make test` compares a fresh sample
+# run against: after a deliberate change to the physics or the methods, never to make a failing test pass.
+.PHONY: golden
+golden: $(STAMP)
+	$(BIN)/seatune report configs/runs/sample.yaml --force ingest
+	$(BIN)/python -m seatune.report.golden runs/sample/summary.parquet tests/golden/sample_summary.json
 
 lint: $(STAMP)
 	$(BIN)/ruff check seatune tests benchmarks

@@ -3,10 +3,20 @@
 import json
 import sys
 
-from benchmarks import bench_channel_sigma, bench_dbi, bench_filter, bench_ingest, bench_synthesis, bench_ukf
+from benchmarks import (
+    bench_batch,
+    bench_channel_sigma,
+    bench_dbi,
+    bench_filter,
+    bench_ingest,
+    bench_predict,
+    bench_synthesis,
+    bench_ukf,
+)
 
 BENCHMARKS = {"channel_sigma": bench_channel_sigma.run, "synthesis": bench_synthesis.run, "filter": bench_filter.run,
-              "ingest": bench_ingest.run, "ukf": bench_ukf.run, "dbi": bench_dbi.run}
+              "ingest": bench_ingest.run, "ukf": bench_ukf.run, "dbi": bench_dbi.run, "batch": bench_batch.run,
+              "predict": bench_predict.run}
 
 if __name__ == "__main__":
     names = sys.argv[1:] or list(BENCHMARKS)

@@ -29,6 +29,6 @@ def cli():
 
 
 def main():
-    from seatune.cli import simulate, stages, vessel  # noqa: F401  (registers the commands)
+    from seatune.cli import batch, predict, simulate, stages, vessel  # noqa: F401  (registers the commands)
 
     cli(prog_name="seatune")

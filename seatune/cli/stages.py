@@ -8,11 +8,14 @@ import time
 import click
 
 from seatune.cli.main import cli, handle_errors
+from seatune.io.atomic import remove_stale_temps
 
-ORDER = ("ingest", "windows", "filter", "identify", "tune")
+ORDER = ("ingest", "windows", "filter", "identify", "tune", "report")
 
 
 def _line(stage: str, summary: dict, seconds: float) -> str:
+    if stage == "report":
+        return _report_line(summary, seconds)
     if summary.get("skipped"):
         return f"{stage}: up to date (skipped)"
     if stage == "ingest":
@@ -36,35 +39,52 @@ def _line(stage: str, summary: dict, seconds: float) -> str:
 
 def _tune_line(summary: dict, seconds: float) -> str:
     post = ", ".join(f"{k} {m:.4g} ± {s:.2g}" for k, (m, s) in summary["posterior"].items())
-    return (f"tune: {summary['backend']} on {summary['windows']} windows: {post}; held-out σ error "
-            f"{100 * summary['error_prior']:.1f} % (prior) → {100 * summary['error_tuned']:.1f} % (tuned) "
+    return (f"tune: {summary['backend']} on {summary['windows']} windows: {post}; held-out σ error on the "
+            f"channels the parameters move ({', '.join(summary['informative'])}) "
+            f"{100 * summary['error_prior_informative']:.1f} % (prior) → "
+            f"{100 * summary['error_tuned_informative']:.1f} % (tuned), on all channels "
+            f"{100 * summary['error_prior']:.1f} % → {100 * summary['error_tuned']:.1f} % "
             f"over {summary['holdout']} windows ({seconds:.0f} s)")
 
 
-def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = ()) -> None:
+def _report_line(summary: dict, seconds: float) -> str:
+    if summary.get("skipped"):
+        return f"report: up to date (skipped): {summary['path']}"
+    diag = ", diagnosis included" if summary["diagnosis"] else ""
+    return (f"report: {summary['figures']} figures, {summary['kb']:.0f} kB; {summary['defects']} input defects "
+            f"counted{diag}; summary.parquet written ({seconds:.0f} s): {summary['path']}")
+
+
+def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = (), progress=None) -> None:
+    """Run the stages up to `last`; `progress(stage)` (optional) is called as each stage starts."""
     from seatune.io.run_yaml import Run
     from seatune.pipeline.filter import filter_stage
     from seatune.pipeline.identify import identify_stage
     from seatune.pipeline.ingest import ingest
+    from seatune.pipeline.report import report_stage
     from seatune.pipeline.tune import tune_stage
     from seatune.pipeline.vessel import open_vessel
     from seatune.pipeline.windows import windows_stage
 
     run = Run(run_yaml)
     model = open_vessel(run.vessel_path)
-    if last == "tune":
+    if ORDER.index(last) >= ORDER.index("tune"):
         from seatune.pipeline.tune import tuning_parameters
 
         tuning_parameters(run, model)  # a bad tuning config fails before any stage runs
     run.run_dir.mkdir(parents=True, exist_ok=True)
+    remove_stale_temps(run.run_dir)  # temporaries of a killed run would otherwise pile up
     stages = {"ingest": lambda f: ingest(run, model, echo=click.echo, force=f),
               "windows": lambda f: windows_stage(run, echo=click.echo, force=f),
               "filter": lambda f: filter_stage(run, model, echo=click.echo, force=f),
               "identify": lambda f: identify_stage(run, model, echo=click.echo, force=f),
-              "tune": lambda f: tune_stage(run, model, echo=click.echo, force=f)}
+              "tune": lambda f: tune_stage(run, model, echo=click.echo, force=f),
+              "report": lambda f: report_stage(run, model, echo=click.echo, force=f)}
     redo = False
     for stage in ORDER[: ORDER.index(last) + 1]:
         redo = redo or stage in force
+        if progress is not None:
+            progress(stage)
         start = time.perf_counter()
         summary = stages[stage](redo)  # later stages see new inputs through their fingerprints
         click.echo(_line(stage, summary, time.perf_counter() - start))
@@ -87,3 +107,5 @@ filter_ = _command("filter", "Adaptive lowpass cutoff, σ, Tz and Welch spectra 
 identify = _command("identify", "RAOs and natural frequencies → raos.parquet, natural_frequencies.parquet.")
 tune = _command("tune", "Loading parameters tuned window by window (DBI or UKF) → tuning_history.parquet, "
                         "tuned_vessel.yaml, validation.parquet.")
+report = _command("report", "One self-contained page an engineer reads instead of the tables → report.html, "
+                            "summary.parquet (key figures, one row).")
