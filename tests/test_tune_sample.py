@@ -85,6 +85,22 @@ def test_tune_with_sea_state_dependent_damping(filtered, backend):
     assert b44.loc[2, "std"] < b44.loc[0, "std"]
 
 
+def test_heading_rules_choose_the_measurements_per_window(filtered):
+    # A7 Case 4 in DESIGN's β (folded, 180 = head seas): no roll in head to bow-quartering seas, no pitch abaft.
+    rules = [{"beta_deg": [90, 180], "channels": ["pitch", "pitch_rate", "imu_fz"]},
+             {"beta_deg": [0, 90], "channels": ["roll", "roll_rate", "imu_fy"]}]
+    path = sample_run(filtered, backend="ukf", parameters=["r44", "beta44"], heading_rules=rules)
+    res = run_cli("tune", path, "--force", "tune")
+    assert res.returncode == 0, res.stderr
+    hist = pd.read_parquet(filtered / "run" / "tuning_history.parquet")
+    used = hist[hist["update"] > 0].groupby("update")["channels_used"].first()
+    allowed = [{f"{c}:sigma" for c in r["channels"]} for r in rules]
+    assert all(set(u.split(",")) in allowed for u in used)  # each window used exactly one rule's measurements
+    path = sample_run(filtered, heading_rules=[{"beta_deg": [0, 180], "channels": ["moonpool"]}])
+    res = run_cli("tune", path, "--force", "tune")
+    assert res.returncode == 2 and "tuning.heading_rules[0].channels" in res.stderr
+
+
 @pytest.mark.parametrize("tuning, needle", [
     ({"backend": "dbl"}, "tuning.backend"),
     ({"parameters": ["r45"]}, "tuning.parameters"),

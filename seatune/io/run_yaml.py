@@ -114,6 +114,23 @@ class DampingGprSettings(Strict):
     length_scales: tuple[PositiveFloat, PositiveFloat] = (0.7, 0.2)  # m, rad/s (A4 Table 5)
 
 
+class HeadingRule(Strict):
+    """Measurements used in windows whose mean wave direction β (DESIGN §3, folded to 0–180°: 180 = head seas,
+    port and starboard alike) lies in `beta_deg` — A7 Case 4 (thesis Table 4.2) drops roll in head-to-bow-quartering
+    seas and pitch from beam to following seas."""
+
+    beta_deg: tuple[float, float]
+    channels: list[str] | None = None  # None: tuning.channels
+    statistics: list[Literal["sigma", "tz"]] | None = None  # None: tuning.statistics
+
+    @field_validator("beta_deg")
+    @classmethod
+    def _range(cls, v):
+        if not 0.0 <= v[0] < v[1] <= 180.0:
+            raise ValueError("beta_deg must be [low, high] with 0 <= low < high <= 180 (folded wave direction)")
+        return v
+
+
 class TuningSettings(Strict):
     backend: Literal["dbi", "ukf"] = "dbi"
     parameters: list[str] = Field(default=["r44", "beta44"], min_length=1)  # priors from the vessel YAML
@@ -123,6 +140,7 @@ class TuningSettings(Strict):
     dbi: DbiSettings = DbiSettings()
     ukf: UkfSettings = UkfSettings()
     damping_gpr: DampingGprSettings = DampingGprSettings()
+    heading_rules: list[HeadingRule] = []  # first matching rule wins; no match: every configured measurement
 
     @field_validator("parameters")
     @classmethod

@@ -59,6 +59,22 @@ def damping_gpr(settings, parameters):
                       length_scales=settings.length_scales)
 
 
+def heading_rule_observation(settings, obs, sea):
+    """The window's observation restricted by the first heading rule that covers its mean β (A7 Case 4)."""
+    from seatune.tuning.interface import Observation
+
+    folded = abs((float(sea.mean[2]) + 180.0) % 360.0 - 180.0)  # port and starboard alike, 180 = head seas
+    for rule in settings.heading_rules:
+        lo, hi = rule.beta_deg
+        if lo <= folded <= hi:
+            chans = set(rule.channels or [n.split(":")[0] for n in obs.names])
+            stats = set(rule.statistics or settings.statistics)
+            keep = [j for j, n in enumerate(obs.names) if n.split(":")[0] in chans and n.split(":")[1] in stats]
+            return Observation(obs.window_id, tuple(obs.names[j] for j in keep), obs.z[keep], obs.variance[keep],
+                               obs.duration_s, obs.common_scale_variance)
+    return obs
+
+
 def update_with_gpr(backend, gpr, model, obs, sea):
     """One backend update; with the GPR, β44's belief is first replaced by its prediction at this sea state
     (A4 §4.1 step 1, A4 eq. 18) and the posterior β44 is then stored as a GPR sample (step 5)."""
@@ -218,6 +234,11 @@ def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
     if missing:
         raise UserError(str(run.path), "tuning.channels", f"not among the filtered channels: {', '.join(missing)}")
     names = [f"{c}:{s}" for c in channels for s in settings.statistics]
+    for k, rule in enumerate(settings.heading_rules):
+        unknown = sorted(set(rule.channels or []) - set(channels))
+        if unknown:
+            raise UserError(str(run.path), f"tuning.heading_rules[{k}].channels",
+                            f"not among the tuned channels: {', '.join(unknown)}")
     power = ChannelPower(vessel, [p.name for p in parameters], channels)
     inputs = window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, names)
     if not inputs:
@@ -231,7 +252,8 @@ def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
     rows = history_rows(0, "", backend.name, backend.posterior())
     for i, ((wid, model, obs, sea), role) in enumerate(zip(inputs, roles, strict=True)):
         if role == "train":
-            rows += history_rows(i + 1, wid, backend.name, update_with_gpr(backend, gpr, model, obs, sea))
+            used = heading_rule_observation(settings, obs, sea)
+            rows += history_rows(i + 1, wid, backend.name, update_with_gpr(backend, gpr, model, used, sea))
     post = backend.posterior()
     prior_phi = np.array([[p.prior_mean for p in parameters]])
     design = prior_design(parameters)
