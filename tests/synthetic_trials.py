@@ -77,6 +77,4 @@ def observation(window_id: str, names, sigma: np.ndarray, model: WindowStatistic
         band = model._w[j] > 0
         nu = effective_dof(spectra[band, model._chan[j]].astype(float), model.omega[band], duration_s)
         var.append(sigma[j] ** 2 / (2 * max(nu, 1.0)))
-    var = np.array(var)
-    common = float(np.median(var / np.asarray(sigma, float) ** 2))  # one realisation drives every channel
-    return Observation(window_id, tuple(names), np.asarray(sigma, float), var, duration_s, common)
+    return Observation.of_one_sea(window_id, names, sigma, var, duration_s)

@@ -75,15 +75,21 @@ def heading_rule_observation(settings, obs, sea):
     return obs
 
 
+def gpr_beta44(gpr, sea):
+    """The GPR input of a window's sea state and β44's predicted mean and std there (A4 eq. 22a)."""
+    from seatune.tuning.damping_gpr import gpr_inputs
+
+    x = gpr_inputs(*sea.mean[:3])
+    mean, std = gpr.predict(x)
+    return x, float(mean[0]), float(std[0])
+
+
 def update_with_gpr(backend, gpr, model, obs, sea):
     """One backend update; with the GPR, β44's belief is first replaced by its prediction at this sea state
     (A4 §4.1 step 1, A4 eq. 18) and the posterior β44 is then stored as a GPR sample (step 5)."""
     if gpr is None:
         return backend.update(model, obs, sea)
-    from seatune.tuning.damping_gpr import gpr_inputs
-
-    x = gpr_inputs(*sea.mean[:3])
-    mean, std = (float(v[0]) for v in gpr.predict(x))
+    x, mean, std = gpr_beta44(gpr, sea)
     if backend.name == "dbi":
         post = backend.update(model, obs, sea, fresh_marginals={"beta44": backend.gaussian_pmf("beta44", mean, std)})
     else:
@@ -162,10 +168,7 @@ def window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, name
             value = float(st.loc[ch, stat])
             z.append(value)
             var.append(value**2 / (2 * nu))  # Var σ̂ ≈ σ²/(2ν) (delta method on χ²_ν); Tz: same relative error
-        z, var = np.array(z), np.array(var)
-        sig = np.array([n.endswith(":sigma") for n in names])
-        common = float(np.median(var[sig] / z[sig] ** 2)) if sig.any() else 0.0  # one sea drives every channel
-        obs = Observation(str(row.window_id), tuple(names), z, var, float(row.duration_s), common)
+        obs = Observation.of_one_sea(str(row.window_id), names, z, var, row.duration_s)
         out.append((str(row.window_id), model, obs, sea_state(theta0, std)))
     return out
 
@@ -261,9 +264,7 @@ def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
     for (wid, model, obs, sea), role in zip(inputs, roles, strict=True):
         tuned_phi = post.mean[None, :].copy()
         if gpr is not None:  # β44 of this window's sea state
-            from seatune.tuning.damping_gpr import gpr_inputs
-
-            tuned_phi[0, post.names.index("beta44")] = gpr.predict(gpr_inputs(*sea.mean[:3]))[0][0]
+            tuned_phi[0, post.names.index("beta44")] = gpr_beta44(gpr, sea)[1]
         pred = model.predict(np.vstack([prior_phi, tuned_phi]), sea.mean[None, :])[:, 0, :]
         spread = model.predict(design, sea.mean[None, :])[:, 0, :].std(axis=0, ddof=1) / obs.z  # A2 eq. 9
         val += [{"window_id": wid, "role": role, "measurement": n, "measured": float(obs.z[j]),

@@ -72,6 +72,15 @@ class Observation:
     duration_s: float
     common_scale_variance: float = 0.0
 
+    @classmethod
+    def of_one_sea(cls, window_id: str, names, z, variance, duration_s: float) -> Observation:
+        """Statistics of channels driven by one sea realisation: the common factor's relative variance is taken
+        as the median relative sampling variance of the σ̂ (0 without σ measurements)."""
+        z, variance = np.asarray(z, dtype=float), np.asarray(variance, dtype=float)
+        sig = np.array([n.endswith(":sigma") for n in names])
+        common = float(np.median(variance[sig] / z[sig] ** 2)) if sig.any() else 0.0
+        return cls(window_id, tuple(names), z, variance, float(duration_s), common)
+
 
 class ForwardModel(Protocol):
     """Predicted statistics of the measurement names, in the same order as Observation.names."""
