@@ -19,7 +19,7 @@ from seatune.physics.response import motion_raos_at
 from seatune.physics.spectra import SpectrumPartition, discrete_spreading
 from seatune.physics.synthesis import BlockPlan, amplitudes, draw_components, synthesize
 from seatune.physics.voyage import Kinematics, Segment, kinematics
-from seatune.pipeline.simulate_effects import EFFECTS, EffectContext
+from seatune.pipeline.simulate_effects import EFFECTS, EffectContext, effect_transfer
 from seatune.pipeline.vessel import VesselModel
 
 ORDER = {"angle": 0, "rate": 1, "displacement": 0, "velocity": 1, "acceleration": 2, "specific_force": 2}
@@ -98,6 +98,7 @@ def simulate(spec: ScenarioSpec, model: VesselModel, progress=None) -> Simulated
     frac = (w - lo)[:, None]
     amp = amplitudes(comps, (1 - frac) * densities[lo] + frac * densities[hi])  # variance linear in time
     transfer = motion_raos_at(db, truth_loading, comps.omega)  # (N, nb, 6), solved at each ω_n
+    transfer = effect_transfer(db, truth_loading, comps.omega, transfer, spec.effects)
     motions = synthesize(dt, n, comps, plan, amp, transfer, kin.heading_deg[tb], kin.velocity_en[tb],
                          kin.position_en[tb], orders=(0, 1, 2))
     if progress:
@@ -107,7 +108,8 @@ def simulate(spec: ScenarioSpec, model: VesselModel, progress=None) -> Simulated
     derivs = {0: xi, 1: xi_dot, 2: xi_ddot}
 
     channels = {ch.name: _linear_channel(ch, derivs, draft, db.g) for ch in model.channels}
-    ctx = EffectContext(t=t, fs=fs, rng=rng, model=model, draft=draft, xi=derivs, kin=kin, channels=channels)
+    ctx = EffectContext(t=t, fs=fs, rng=rng, model=model, draft=draft, xi=derivs, kin=kin, channels=channels,
+                        loading=truth_loading)
     for eff in spec.effects:
         EFFECTS[eff.kind].before_sensors(ctx, eff)
 
