@@ -1,0 +1,279 @@
+"""The library of candidate effects: physics the linear strip/BEM model lacks, each a model extension with few
+physical parameters and a documented signature. Pure computation on `ModelParts`.
+
+An extra degree of freedom q attached to the hull by a relative spring-dashpot c̃ = c − iωb along a rigid-body
+row r (r·ξ = the hull motion q is attached to), with q's own impedance z = −ω²m + c̃ and wave force f_q,
+
+    [ H + c̃ r rᵀ   −c̃ r ] [ξ]   [F  ]
+    [ −c̃ rᵀ         z  ] [q] = [f_q],
+
+is eliminated exactly: (H + c̃(1 − c̃/z) r rᵀ) ξ = F + (c̃ f_q / z) r. So the moonpool and the tank cost one 6×6
+solve, as the plain model does.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from seatune.physics.channels import AXES, Channel, point_translation, transfer_vectors
+
+
+@dataclass(frozen=True)
+class EffectParameter:
+    name: str
+    unit: str
+    initial: float
+    lower: float
+    upper: float
+    scan: tuple[float, ...] = ()  # values scanned for the start of a multimodal parameter (a resonance)
+
+
+class Effect:
+    """A candidate: `apply` changes the model parts; `spectra` may iterate (stochastic linearisation)."""
+
+    name = ""
+    signature = ""
+    parameters: tuple[EffectParameter, ...] = ()
+
+    def applicable(self, vessel, channels) -> bool:
+        return True
+
+    def scan_values(self, parts0, bands) -> dict[str, tuple[float, ...]]:
+        """Start values to scan per parameter: the declared scan plus the centres of residual bands."""
+        return {p.name: p.scan for p in self.parameters if p.scan}
+
+    def apply(self, parts, params: dict, model) -> None:
+        raise NotImplementedError
+
+    def spectra(self, parts, params: dict, model) -> np.ndarray:
+        self.apply(parts, params, model)
+        return parts.spectra()
+
+
+def attach_dof(parts, row: np.ndarray, c_tilde: np.ndarray, z: np.ndarray, f_q: np.ndarray | None = None) -> None:
+    """Eliminate an attached DOF (module docstring); row (6,), c_tilde and z (nf,), f_q (nf, nb) or None."""
+    rr = np.outer(row, row)
+    parts.impedance = parts.impedance + (c_tilde * (1.0 - c_tilde / z))[:, None, None] * rr
+    if f_q is not None:
+        parts.force = parts.force + (c_tilde / z)[:, None, None] * f_q[:, :, None] * row[None, None, :]
+
+
+class QuadraticRollDamping(Effect):
+    name = "quadratic_roll_damping"
+    signature = ("roll damping grows with amplitude: the roll resonance peak is over-predicted more in higher seas "
+                 "(roll, roll rate, lateral accelerations; residual correlates with Hs)")
+    parameters = (EffectParameter("q", "1/rad", 0.0, 0.0, 20.0, scan=(0.0, 0.3, 1.0, 3.0)),)
+    iterations = 8
+
+    def spectra(self, parts, params, model):
+        # roll moment −q (I44 + A44(ω_n)) |φ̇| φ̇, linearised per window: b_eq = √(8/π) σ_φ̇ b2 (seed_002 eq. 2.19);
+        # H_w = H − iω b_eq e₄e₄ᵀ per window by Sherman–Morrison on one solve of H
+        b2 = params["q"] * parts.inertia_roll
+        om = parts.omega
+        rhs = np.concatenate([np.swapaxes(parts.force, -1, -2), np.broadcast_to(np.eye(6)[:, 3:4], (om.size, 6, 1))],
+                             axis=-1)
+        sol = np.linalg.solve(parts.impedance, rhs)  # (nf, 6, nb + 1)
+        xi0, g = sol[:, :, :-1], sol[:, :, -1]
+        h0 = np.einsum("fdb,fdc->fbc", xi0, parts.transfer)
+        hg = np.einsum("fd,fdc->fc", g, parts.transfer)
+        w = _trapezoid(om)
+        sigma = np.zeros(parts.wave.shape[0])
+        for k in range(self.iterations):
+            c = -1j * om[None, :] * (np.sqrt(8.0 / np.pi) * sigma * b2)[:, None]  # (nw, nf)
+            coef = c[:, :, None] * xi0[None, :, 3, :] / (1.0 + c * g[None, :, 3])[:, :, None]  # (nw, nf, nb)
+            roll = xi0[None, :, 3, :] - coef * g[None, :, 3, None]
+            new = np.sqrt((np.einsum("wfb,wfb->wf", roll.real**2 + roll.imag**2, parts.wave) * om**2) @ w)
+            sigma = new if k == 0 else np.sqrt(sigma * new)  # geometric damping of the fixed point
+        h = h0[None] - coef[..., None] * hg[None, :, None, :]  # (nw, nf, nb, nc)
+        return np.einsum("wfbc,wfb->wcf", h.real**2 + h.imag**2, parts.wave)
+
+
+class Moonpool(Effect):
+    name = "moonpool"
+    signature = ("piston mode of a moonpool's water column: a narrow extra peak or notch in heave (and pitch / roll "
+                 "by the moonpool's position) near its resonance, independent of roll")
+
+    def __init__(self, x: float = 0.0, y: float = 0.0):
+        self.x, self.y = float(x), float(y)
+        self.parameters = (
+            EffectParameter("omega_p", "rad/s", 1.0, 0.4, 2.0, scan=tuple(np.round(np.arange(0.5, 1.95, 0.1), 2))),
+            EffectParameter("zeta_p", "", 0.1, 0.01, 0.5),
+            EffectParameter("area", "m^2", 40.0, 1.0, 400.0, scan=(2.0, 40.0)),
+        )
+
+    def apply(self, parts, params, model):
+        # column: mass on a relative spring c_p = ρ g S, excited by the wave pressure at the keel (Molin 2001 piston)
+        om = parts.omega
+        c_p = parts.rho * parts.g * params["area"]
+        m_p = c_p / params["omega_p"] ** 2
+        c_t = c_p - 1j * om * 2.0 * params["zeta_p"] * np.sqrt(c_p * m_p)
+        z = -(om**2) * m_p + c_t
+        k = om**2 / parts.g
+        phase = np.exp(1j * k[:, None] * (self.x * np.cos(parts.beta) + self.y * np.sin(parts.beta))[None, :])
+        f_q = c_t[:, None] * np.exp(-k * parts.draft)[:, None] * phase
+        attach_dof(parts, point_translation(np.array([self.x, self.y, 0.0]), 2), c_t, z, f_q)
+
+
+class AntiRollTank(Effect):
+    name = "anti_roll_tank"
+    signature = ("a passive tank tuned near roll resonance: the roll peak is split in two with a notch near the "
+                 "tank frequency, independent of amplitude")
+    parameters = (
+        EffectParameter("omega_t", "rad/s", 0.5, 0.2, 1.5),
+        EffectParameter("zeta_t", "", 0.15, 0.02, 0.8),
+        EffectParameter("mu", "", 0.02, 0.001, 0.2),
+    )
+
+    def scan_values(self, parts0, bands):
+        w = parts0.omega_roll
+        return {"omega_t": tuple(np.round(w * np.array([0.8, 0.9, 1.0, 1.1, 1.2]), 4))}
+
+    def apply(self, parts, params, model):
+        # rotational absorber on roll (Den Hartog): I_t = μ (I44 + A44), k̃ = I_t ω_t² − iω 2ζ_t I_t ω_t
+        om = parts.omega
+        i_t = params["mu"] * parts.inertia_roll
+        k_t = i_t * params["omega_t"] ** 2 - 1j * om * 2.0 * params["zeta_t"] * i_t * params["omega_t"]
+        attach_dof(parts, np.eye(6)[3], k_t, -(om**2) * i_t + k_t)
+
+
+def _sensor_channels(model, sensor: str, kinds) -> list[int]:
+    specs = {c.name: c for c in model.vessel.spec.channels}
+    return [j for j, name in enumerate(model.data.channels)
+            if specs[name].sensor == sensor and specs[name].kind in kinds]
+
+
+class ImuLeverArm(Effect):
+    name = "imu_lever_arm"
+    signature = ("the IMU is not where the vessel YAML puts it: its accelerations misfit, growing with ω² and "
+                 "with the rotations, while angles and rates fit")
+    parameters = (EffectParameter("dx", "m", 0.0, -15.0, 15.0), EffectParameter("dy", "m", 0.0, -15.0, 15.0),
+                  EffectParameter("dz", "m", 0.0, -15.0, 15.0))
+    kinds = ("displacement", "velocity", "acceleration", "specific_force")
+    order = {"displacement": 0, "velocity": 1, "acceleration": 2, "specific_force": 2}
+
+    def __init__(self, sensor: str = "imu"):
+        self.sensor = sensor
+
+    def applicable(self, vessel, channels):
+        specs = {c.name: c for c in vessel.spec.channels}
+        return any(specs[c].sensor == self.sensor and specs[c].kind in self.kinds for c in channels)
+
+    def apply(self, parts, params, model):
+        d = np.array([params["dx"], params["dy"], params["dz"]])
+        iw = -1j * parts.omega
+        t = parts.transfer.copy()
+        for j in _sensor_channels(model, self.sensor, self.kinds):
+            ch = model._channels[j]
+            rotation = point_translation(d, AXES[ch.axis]) - point_translation(np.zeros(3), AXES[ch.axis])  # θ × d
+            t[:, :, j] += (iw ** self.order[ch.kind])[:, None] * rotation[None, :]
+        parts.transfer = t
+
+
+class ImuMisalignment(Effect):
+    name = "imu_misalignment"
+    signature = ("the IMU axes are rotated from the body axes: each channel picks up its neighbours' motion "
+                 "(roll ↔ pitch, fx ↔ fy), so a misfit on one axis mirrors the other axis' spectrum")
+    parameters = (EffectParameter("roll_deg", "deg", 0.0, -15.0, 15.0),
+                  EffectParameter("pitch_deg", "deg", 0.0, -15.0, 15.0),
+                  EffectParameter("yaw_deg", "deg", 0.0, -15.0, 15.0))
+
+    def __init__(self, sensor: str = "imu"):
+        self.sensor = sensor
+
+    def applicable(self, vessel, channels):
+        specs = {c.name: c for c in vessel.spec.channels}
+        return any(specs[c].sensor == self.sensor for c in channels)
+
+    def apply(self, parts, params, model):
+        # the sensor reports R_mᵀ v ≈ v − m × v of each body vector v (small mounting rotation m)
+        m = np.radians([params["roll_deg"], params["pitch_deg"], params["yaw_deg"]])
+        t = parts.transfer.copy()
+        for j in _sensor_channels(model, self.sensor, ("angle", "rate", "acceleration", "specific_force")):
+            ch = model._channels[j]
+            axes = [Channel(f"{ch.name}_{a}", ch.kind, a, ch.point) for a in "xyz"]
+            v = transfer_vectors(axes, parts.omega, np.array([parts.draft]), parts.g)[0]  # (nf, 6, 3)
+            a = AXES[ch.axis]
+            cross = m[(a + 1) % 3] * v[:, :, (a + 2) % 3] - m[(a + 2) % 3] * v[:, :, (a + 1) % 3]
+            t[:, :, j] = t[:, :, j] - cross
+        parts.transfer = t
+
+
+class HsBias(Effect):
+    name = "hs_bias"
+    signature = "the hindcast's Hs is biased: every channel in every window misfits by one common factor"
+    parameters = (EffectParameter("hs_factor", "", 1.0, 0.4, 2.5),)
+
+    def apply(self, parts, params, model):
+        parts.wave = parts.wave * params["hs_factor"] ** 2
+
+
+class MissingSwell(Effect):
+    name = "missing_swell"
+    signature = ("a swell the hindcast misses: a low-frequency excess below the wind sea in all channels, "
+                 "its direction fixed on the compass whatever the heading")
+    parameters = (EffectParameter("hs", "m", 0.05, 0.02, 4.0),
+                  EffectParameter("tp", "s", 14.0, 8.0, 25.0, scan=(10.0, 13.0, 16.0, 20.0)),
+                  EffectParameter("dir_from_deg", "deg", 180.0, -360.0, 720.0, scan=(0.0, 90.0, 180.0, 270.0)))
+
+    def apply(self, parts, params, model):
+        from seatune.physics.spectra import jonswap
+
+        s = jonswap(parts.omega, params["hs"], params["tp"], 3.0)  # swell: peaked JONSWAP
+        beta = np.mod(model.data.heading_deg - params["dir_from_deg"] - 180.0, 360.0)  # DESIGN §3
+        parts.wave = parts.wave + s[None, :, None] * _direction_weights(beta, np.degrees(parts.beta))[:, None, :]
+
+
+class WaveSpreading(Effect):
+    name = "wave_spreading"
+    signature = ("the sea is more short-crested than the hindcast: head/following-sea windows show roll and sway "
+                 "the model lacks, beam-sea windows less roll at the peak")
+    parameters = (EffectParameter("spread_deg", "deg", 3.0, 3.0, 80.0, scan=(3.0, 10.0, 25.0, 45.0)),)
+
+    def apply(self, parts, params, model):
+        from seatune.physics.spectra import cos2s_s_from_spread, spreading_cos2s
+
+        beta = parts.beta
+        s = float(cos2s_s_from_spread(np.radians(params["spread_deg"])))
+        kernel = spreading_cos2s(beta - beta[:, None], s)  # (nb_out, nb_in)
+        kernel = kernel / kernel.sum(axis=0, keepdims=True)
+        parts.wave = np.einsum("ob,wfb->wfo", kernel, parts.wave)
+
+
+def _direction_weights(beta_deg: np.ndarray, grid_deg: np.ndarray) -> np.ndarray:
+    """Split a direction between its two neighbours on the equally spaced grid: (n, nb), rows sum to 1."""
+    step = 360.0 / grid_deg.size
+    pos = np.mod(beta_deg - grid_deg[0], 360.0) / step
+    i = np.floor(pos).astype(int) % grid_deg.size
+    f = pos - np.floor(pos)
+    out = np.zeros((beta_deg.size, grid_deg.size))
+    rows = np.arange(beta_deg.size)
+    out[rows, i] += 1 - f
+    out[rows, (i + 1) % grid_deg.size] += f
+    return out
+
+
+def _trapezoid(x: np.ndarray) -> np.ndarray:
+    w = np.zeros_like(x)
+    dx = np.diff(x)
+    w[:-1] += dx / 2
+    w[1:] += dx / 2
+    return w
+
+
+def library(names=None, moonpool_position=(0.0, 0.0), imu_sensor: str = "imu") -> list[Effect]:
+    """The candidate effects by name (all by default)."""
+    every = {e.name: e for e in (QuadraticRollDamping(), Moonpool(*moonpool_position), AntiRollTank(),
+                                 ImuLeverArm(imu_sensor), ImuMisalignment(imu_sensor), HsBias(), MissingSwell(),
+                                 WaveSpreading())}
+    if names is None:
+        return list(every.values())
+    unknown = [n for n in names if n not in every]
+    if unknown:
+        raise KeyError(", ".join(unknown))
+    return [every[n] for n in names]
+
+
+EFFECT_NAMES = ("quadratic_roll_damping", "moonpool", "anti_roll_tank", "imu_lever_arm", "imu_misalignment",
+                "hs_bias", "missing_swell", "wave_spreading")

@@ -1,0 +1,163 @@
+"""The spectral model diagnosis fits: channel spectra of every window on the measured (Welch) frequencies, for
+one loading condition and one candidate effect. Pure computation.
+
+The tuning forward model works on the hydro database's grid; resonances a missing effect adds (a tank's split
+roll peak, a moonpool's piston mode) are narrower than that grid, so here A(ω), B(ω) and F(ω, β) are
+interpolated to the analysis frequencies (power and phase for F, physics/interp.py) and the equation of motion
+(DESIGN §4) is solved at each of them. An effect changes the parts before the solve (`ModelParts`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from seatune.physics.channels import transfer_vectors
+from seatune.physics.interp import interp_axis0
+from seatune.physics.loading import load
+
+
+@dataclass
+class WindowSet:
+    """Measured spectra of the analysed windows, all on one frequency grid (one Welch segment length)."""
+
+    window_ids: list[str]
+    roles: np.ndarray  # "train" | "holdout" per window
+    omega: np.ndarray  # (nf,) rad/s, Welch bins
+    omega_fine: np.ndarray  # (nm,) rad/s, where the model is solved (a uniform refinement around the bins)
+    kernel_index: np.ndarray  # (nf, nk) indices into omega_fine around each bin
+    kernel: np.ndarray  # (nk,) Welch spectral window |W|² at those offsets, sums to 1
+    channels: list[str]
+    measured: np.ndarray  # (nw, nc, nf) one-sided, unit²·s/rad
+    dof: np.ndarray  # (nw, nc) Welch degrees of freedom per bin
+    mask: np.ndarray  # (nw, nc, nf) bins analysed (energetic band, below the filter cutoff)
+    wave: np.ndarray  # (nw, nm, nb) S(ω, β_b)·Δβ on omega_fine × the database's body-relative directions
+    hs: np.ndarray  # (nw,) m, as the hindcast gives it
+    tp: np.ndarray  # (nw,) s
+    beta_deg: np.ndarray  # (nw,) mean body-relative wave direction (DESIGN §3)
+    heading_deg: np.ndarray  # (nw,)
+    sog: np.ndarray  # (nw,) m/s
+
+    def subset(self, keep: np.ndarray) -> WindowSet:
+        keep = np.asarray(keep, dtype=bool)
+        return WindowSet([w for w, k in zip(self.window_ids, keep, strict=True) if k], self.roles[keep], self.omega,
+                         self.omega_fine, self.kernel_index, self.kernel, self.channels, self.measured[keep],
+                         self.dof[keep], self.mask[keep], self.wave[keep],
+                         self.hs[keep], self.tp[keep], self.beta_deg[keep], self.heading_deg[keep], self.sog[keep])
+
+
+@dataclass
+class ModelParts:
+    """What an effect may change, for one loading condition on the analysis grid."""
+
+    omega: np.ndarray  # (nf,)
+    impedance: np.ndarray  # (nf, 6, 6) H = −ω²(M + A) − iω(B + B_v) + C, or (nw, nf, 6, 6) per window
+    force: np.ndarray  # (nf, nb, 6) excitation per unit wave amplitude
+    transfer: np.ndarray  # (nf, 6, nc) channel maps t_j
+    wave: np.ndarray  # (nw, nf, nb) S(ω, β)·Δβ
+    beta: np.ndarray  # (nb,) rad, database directions
+    draft: float
+    mass_matrix: np.ndarray  # (6, 6)
+    stiffness: np.ndarray  # (6, 6)
+    extra_damping: np.ndarray  # (6, 6)
+    added_mass: np.ndarray  # (nf, 6, 6)
+    damping: np.ndarray  # (nf, 6, 6) radiation
+    omega_roll: float  # undamped roll natural frequency [rad/s]
+    inertia_roll: float  # I44 + A44(ω_roll) about the origin [kg·m²]
+    g: float
+    rho: float
+
+    def solve(self) -> np.ndarray:
+        """Channel transfer functions H_j(ω, β): (nf, nb, nc) or (nw, nf, nb, nc)."""
+        xi = np.linalg.solve(self.impedance, np.swapaxes(self.force, -1, -2))  # (..., nf, 6, nb)
+        return np.einsum("...fdb,fdc->...fbc", xi, self.transfer)
+
+    def spectra(self) -> np.ndarray:
+        """S_j(ω) = Σ_β |H_j|² S(ω, β) Δβ per window: (nw, nc, nf)."""
+        h = self.solve()
+        power = h.real**2 + h.imag**2
+        if power.ndim == 3:
+            return np.einsum("fbc,wfb->wcf", power, self.wave)
+        return np.einsum("wfbc,wfb->wcf", power, self.wave)
+
+
+class SpectralModel:
+    """Channel spectra of a vessel over a WindowSet, for a loading condition and an effect."""
+
+    def __init__(self, vessel, parameter_names, data: WindowSet):
+        db = vessel.db
+        self.vessel = vessel
+        self.parameter_names = tuple(parameter_names)
+        self.data = data
+        om = data.omega_fine
+        self._A = np.stack([interp_axis0(db.omega, a, om) for a in db.added_mass])  # (nd, nf, 6, 6)
+        self._B = np.stack([interp_axis0(db.omega, b, om) for b in db.radiation_damping])
+        self._F = np.stack([interp_axis0(db.omega, f, om) for f in db.excitation_force])  # (nd, nf, nb, 6)
+        self._channels = [vessel.channel(c) for c in data.channels]
+        self._base = vessel.loading()
+
+    def loading(self, phi: np.ndarray):
+        return self.vessel.loading(**{n: float(v) for n, v in zip(self.parameter_names, phi, strict=True)})
+
+    def parts(self, phi: np.ndarray) -> ModelParts:
+        from seatune.physics.response import natural_frequencies
+
+        db = self.vessel.db
+        loading = self.loading(phi)
+        lh = load(db, loading)
+        i0, i1, w = (float(a[0]) if k == 2 else int(a[0]) for k, a in enumerate(lh.draft_index))
+        A = (1 - w) * self._A[i0] + w * self._A[i1]
+        B = (1 - w) * self._B[i0] + w * self._B[i1]
+        F = (1 - w) * self._F[i0] + w * self._F[i1]
+        om = self.data.omega_fine[:, None, None]
+        M, C, Bv = lh.mass_matrix[0], lh.stiffness[0], lh.extra_damping[0]
+        H = -(om**2) * (M + A) - 1j * om * (B + Bv) + C
+        t = transfer_vectors(self._channels, self.data.omega_fine, lh.draft, db.g)[0]
+        w_roll = float(natural_frequencies(db, loading, dofs=(3,))[0, 0])
+        a44 = float(np.interp(w_roll, db.omega, (1 - w) * db.added_mass[i0, :, 3, 3] + w * db.added_mass[i1, :, 3, 3]))
+        return ModelParts(omega=self.data.omega_fine, impedance=H, force=F, transfer=t, wave=self.data.wave.copy(),
+                          beta=db.wave_direction, draft=float(lh.draft[0]), mass_matrix=M, stiffness=C,
+                          extra_damping=Bv, added_mass=A, damping=B, omega_roll=w_roll, inertia_roll=M[3, 3] + a44,
+                          g=db.g, rho=db.rho)
+
+    def spectra(self, phi: np.ndarray, effect=None, params: dict | None = None) -> np.ndarray:
+        """Expected Welch spectra E[Ŝ_j] at the bins: the model convolved with the segment's spectral window,
+        so a resonance narrower than the Welch resolution is compared as Welch sees it: (nw, nc, nf)."""
+        parts = self.parts(phi)
+        fine = effect.spectra(parts, params or {}, self) if effect is not None else parts.spectra()
+        return fine[..., self.data.kernel_index] @ self.data.kernel
+
+
+def welch_grid(omega_bins: np.ndarray, segment_s: float, refine: int = 4, lobes: int = 3):
+    """The fine grid, the indices around each bin and the Hann segment's |W(Δω)|² there (sums to 1)."""
+    d = 2 * np.pi / segment_s
+    offsets = np.arange(-lobes * refine, lobes * refine + 1) / refine  # in bins
+    start = omega_bins[0] - lobes * d
+    n = int(round((omega_bins[-1] - omega_bins[0]) / d)) * refine + 2 * lobes * refine + 1
+    fine = start + np.arange(n) * d / refine
+    centre = np.rint((omega_bins - start) / (d / refine)).astype(int)
+    index = centre[:, None] + np.round(offsets * refine).astype(int)[None, :]
+    n_seg = 1024
+    t = (np.arange(n_seg) + 0.5) / n_seg
+    hann = np.sin(np.pi * t) ** 2
+    kernel = np.abs(np.exp(-2j * np.pi * np.outer(offsets, t)) @ hann) ** 2
+    return fine, index, kernel / kernel.sum()
+
+
+def analysis_mask(measured: np.ndarray, omega: np.ndarray, omega_lo: float, omega_hi, rel: float = 0.03) -> np.ndarray:
+    """Bins analysed: inside [omega_lo, omega_hi] (per channel allowed) and above `rel` × the window-channel's
+    peak, where sensor noise and leakage from outside the band stay below a few per cent: (nw, nc, nf)."""
+    hi = np.broadcast_to(np.asarray(omega_hi, dtype=float), measured.shape[:2])
+    inside = (omega[None, None, :] >= omega_lo) & (omega[None, None, :] <= hi[..., None])
+    peak = np.where(inside, measured, 0.0).max(axis=-1, keepdims=True)
+    return inside & (measured >= rel * peak) & (peak > 0)
+
+
+def long_crested_wave(omega: np.ndarray, spectrum: np.ndarray, beta_deg: np.ndarray,
+                      grid_rad: np.ndarray) -> np.ndarray:
+    """S(ω) travelling at body-relative β per window, split onto the database directions: (nw, nf, nb)."""
+    from seatune.diagnosis.effects import _direction_weights
+
+    weights = _direction_weights(np.atleast_1d(beta_deg), np.degrees(grid_rad))  # (nw, nb)
+    return np.atleast_2d(spectrum)[:, :, None] * weights[:, None, :]

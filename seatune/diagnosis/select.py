@@ -1,0 +1,298 @@
+"""Model selection over the candidate effects: fit each on the training windows together with the tuned loading
+parameters, score it on the held-out windows, name the winner or report the misfit as unexplained. Pure
+computation.
+
+Likelihood of a window's log spectral residuals r_jf = ln(Ŝ_jf / E[Ŝ_jf]) (bias-corrected, residuals.py), with
+E[Ŝ] the model convolved with the Welch spectral window. One sea realisation drives every channel, so the χ²
+sampling of Ŝ at a frequency is largely one factor for all channels, and the hindcast's Hs error is one factor
+for the whole window:
+
+    r_jf = u + e_f + η_jf,   u ~ N(0, τ²),  e_f ~ N(0, a_f),  η_jf ~ N(0, b)
+
+with τ = 2·hs_rel_std, a = 0.8 ψ′(ν/2) + (4·tp_std/Tp)² (wave sampling and the hindcast's Tp error moving the
+spectrum's flanks), b = 0.05² + 0.2 ψ′(ν/2) (what differs between channels: noise, directional spreading).
+u and e_f are marginalised exactly (block Sherman–Morrison). Welch bins of a Hann segment are correlated over
+its equivalent noise bandwidth (1.5 bins), so each bin counts 1/1.5. Treating channels as independent instead
+lets any candidate "explain" the sea's own sampling noise on the training windows and lose on held-out ones.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import minimize
+from scipy.special import polygamma
+
+from seatune.diagnosis import residuals as res
+from seatune.diagnosis.model import SpectralModel, WindowSet
+
+BIN_CORRELATION = 1.5  # Hann window's equivalent noise bandwidth [bins]
+AFFECTED_CHANGE = 0.1  # a bin is in an effect's band where it changes the expected spectrum by ≥ 10 % (log)
+HOLDOUT_MIN = 4.0  # held-out log-likelihood gain [nats] to name an effect (Jeffreys: "strong", odds > 50)
+COMMON_SHARE = 0.8  # share of the χ² sampling variance common to all channels at a frequency
+INDEPENDENT_FLOOR = 0.05**2  # per-channel, per-bin variance no model resolves (sensor noise, small effects)
+TP_FLANK_SLOPE = 4.0  # |d ln S / d ln ω| on a JONSWAP flank: a Tp error δ moves ln S by about 4 δ/Tp
+
+
+def window_nll(r: np.ndarray, mask: np.ndarray, dof: np.ndarray, tau: float, shape_var: np.ndarray):
+    """−ln p of each window's residuals (nw, nc, nf) under the model above; and the posterior mean of u."""
+    psi = polygamma(1, np.asarray(dof, dtype=float).mean(axis=1) / 2)  # (nw,)
+    a = (COMMON_SHARE * psi + shape_var)[:, None]  # (nw, 1)
+    b = (INDEPENDENT_FLOOR + (1 - COMMON_SHARE) * psi)[:, None]
+    rm = np.where(mask, r, 0.0)
+    n = mask.sum(axis=1)  # (nw, nf)
+    s1 = rm.sum(axis=1)
+    s2 = (rm**2).sum(axis=1)
+    den = b + n * a
+    quad = (s2 - a / den * s1**2) / b
+    logdet = np.where(n > 0, n * np.log(b) + np.log1p(n * a / b), 0.0)
+    s = (n / den).sum(axis=1)
+    t = (s1 / den).sum(axis=1)
+    prec = s + 1.0 / tau**2
+    value = 0.5 * (quad.sum(axis=1) - t**2 / prec + logdet.sum(axis=1) + np.log(tau**2 * prec))
+    return value / BIN_CORRELATION, t / prec
+
+
+@dataclass
+class Fit:
+    effect: str
+    params: dict
+    phi: np.ndarray
+    nll_train: float
+    nll_holdout: float
+    n_params: int
+    converged: bool
+    std: dict = field(default_factory=dict)  # Laplace standard errors of the effect parameters
+
+
+class Diagnoser:
+    def __init__(self, vessel, parameters, data: WindowSet, phi_start: np.ndarray, hs_rel_std: float = 0.1,
+                 tp_std_s: float = 0.0):
+        self.vessel = vessel
+        self.parameters = list(parameters)
+        self.data = data
+        self.model = SpectralModel(vessel, [p.name for p in self.parameters], data)
+        self.train = data.roles == "train"
+        self.holdout = data.roles == "holdout"
+        self.tau = max(2.0 * hs_rel_std, 1e-3)
+        self.shape_var = (TP_FLANK_SLOPE * tp_std_s / data.tp) ** 2
+        self.phi_start = np.asarray(phi_start, dtype=float)
+        self._mean = np.array([p.prior_mean for p in self.parameters])
+        self._std = np.array([p.prior_std for p in self.parameters])
+        self._lo = np.array([p.lower for p in self.parameters])
+        self._hi = np.array([p.upper for p in self.parameters])
+        self._base = None
+        self.n_train = float(data.mask[self.train].sum() / BIN_CORRELATION)
+
+    # --- likelihood -----------------------------------------------------------------------------------------
+    def nll(self, phi, effect=None, params=None, which=None) -> float:
+        which = self.train if which is None else which
+        if not which.any():
+            return float("nan")
+        pred = self.model.spectra(phi, effect, params)
+        d = self.data
+        r, _ = res.log_ratio(d.measured[which], pred[which], d.dof[which])
+        value, _ = window_nll(r, d.mask[which], d.dof[which], self.tau, self.shape_var[which])
+        return float(value.sum())
+
+    def _unpack(self, x, effect):
+        p = len(self.parameters)
+        phi = np.clip(self.phi_start + x[:p] * self._std, self._lo, self._hi)
+        params = {}
+        if effect is not None:
+            for k, q in enumerate(effect.parameters):
+                params[q.name] = q.lower + float(np.clip(x[p + k], 0.0, 1.0)) * (q.upper - q.lower)
+        return phi, params
+
+    def _objective(self, x, effect):
+        phi, params = self._unpack(x, effect)
+        prior = 0.5 * float((((phi - self._mean) / self._std) ** 2).sum())
+        return self.nll(phi, effect, params) + prior
+
+    # --- fitting --------------------------------------------------------------------------------------------
+    def fit(self, effect=None, bands=()) -> Fit:
+        p = len(self.parameters)
+        x0 = np.zeros(p) if effect is None or self._base is None else (self._base.phi - self.phi_start) / self._std
+        bounds = [((lo - s0) / sd, (hi - s0) / sd) for lo, hi, s0, sd in
+                  zip(self._lo, self._hi, self.phi_start, self._std, strict=True)]
+        if effect is not None:
+            x0 = np.r_[x0, [(q.initial - q.lower) / (q.upper - q.lower) for q in effect.parameters]]
+            bounds += [(0.0, 1.0)] * len(effect.parameters)
+            x0 = self._scan(x0, effect, bands)
+        result = minimize(self._objective, x0, args=(effect,), method="L-BFGS-B", bounds=bounds,
+                          options={"maxiter": 200, "eps": 1e-4})
+        phi, params = self._unpack(result.x, effect)
+        nll_h = self.nll(phi, effect, params, self.holdout) if self.holdout.any() else float("nan")
+        std = self._effect_std(result, effect) if effect is not None else {}
+        fit = Fit(effect.name if effect else "none", params, phi, self.nll(phi, effect, params), nll_h,
+                  len(effect.parameters) if effect else 0, bool(result.success), std)
+        if effect is None:
+            self._base = fit  # candidates start from the refitted loading without effect
+        return fit
+
+    def _scan(self, x0, effect, bands):
+        p = len(self.parameters)
+        parts0 = self.model.parts(self.phi_start)
+        scans = effect.scan_values(parts0, bands)
+        if not scans:
+            return x0
+        names = [q.name for q in effect.parameters]
+        grids = []
+        for q in effect.parameters:
+            values = scans.get(q.name, ())
+            if q.name.startswith("omega") and bands:  # resonances start where the residual says
+                values = tuple(values) + tuple(b.omega_peak for b in bands)
+            grids.append([(v - q.lower) / (q.upper - q.lower) for v in values] or [x0[p + names.index(q.name)]])
+        best, best_x = np.inf, x0
+        for combo in itertools.product(*grids):
+            x = x0.copy()
+            x[p:] = np.clip(combo, 0.0, 1.0)
+            value = self._objective(x, effect)
+            if value < best:
+                best, best_x = value, x
+        return best_x
+
+    def _effect_std(self, result, effect) -> dict:
+        """Laplace standard errors from L-BFGS-B's inverse-Hessian approximation (a rough figure)."""
+        try:
+            cov = result.hess_inv.todense()
+        except AttributeError:
+            return {}
+        p = len(self.parameters)
+        out = {}
+        for k, q in enumerate(effect.parameters):
+            out[q.name] = float(np.sqrt(max(cov[p + k, p + k], 0.0)) * (q.upper - q.lower))
+        return out
+
+    # --- the whole selection --------------------------------------------------------------------------------
+    def residuals(self, phi, effect=None, params=None):
+        """(r, sd, û) of every window under a model; r already divided by the window's scale e^û."""
+        d = self.data
+        pred = self.model.spectra(phi, effect, params)
+        r, sd = res.log_ratio(d.measured, pred, d.dof)
+        _, u = window_nll(r, d.mask, d.dof, self.tau, self.shape_var)
+        return r - u[:, None, None], sd, pred
+
+    def modes(self, phi) -> dict[str, float]:
+        from seatune.physics.response import natural_frequencies
+
+        w = natural_frequencies(self.vessel.db, self.model.loading(phi), dofs=(2, 3, 4))[0]
+        return {res.DOF_NAMES[d]: float(v) for d, v in zip((2, 3, 4), w, strict=True)}
+
+    def run(self, effects, phi_before: np.ndarray | str | None = None) -> Diagnosis:
+        """`phi_before`: the tuned loading the gap is measured from (default the start); "refit": the loading
+        refitted here without any effect (what a tuning on these windows gives)."""
+        base = self.fit(None)
+        if isinstance(phi_before, str):
+            phi_before = base.phi
+        phi_before = self.phi_start if phi_before is None else np.asarray(phi_before, dtype=float)
+        r0, sd0, pred0 = self.residuals(phi_before)
+        train_data = self.data.subset(self.train)
+        found = res.bands(train_data, r0[self.train], sd0[self.train], self.modes(phi_before))
+        fits = [base] + [self.fit(e, found) for e in effects if e.applicable(self.vessel, self.data.channels)]
+        by_name = {e.name: e for e in effects}
+        rows = []
+        for f in fits:
+            gain_t = base.nll_train - f.nll_train
+            gain_h = base.nll_holdout - f.nll_holdout
+            penalty = 0.5 * f.n_params * np.log(max(self.n_train, 2.0))
+            edge = _at_bound(by_name.get(f.effect), f.params)
+            rows.append({"fit": f, "gain_train": gain_t, "gain_holdout": gain_h, "bic_penalty": penalty,
+                         "at_bound": ", ".join(edge)})
+        located = _band_selection(self.data, found)
+        gaps, cache = {}, {}
+        for f in fits:
+            cache[f.effect] = self.residuals(f.phi, by_name.get(f.effect), f.params)
+            rf, sdf, predf = cache[f.effect]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                moved = np.abs(np.log(predf / pred0)) >= AFFECTED_CHANGE
+            select = self.data.mask & moved if f.n_params and (self.data.mask & moved).any() else located
+            before, after_ = self._gaps(r0, sd0, pred0, select), self._gaps(rf, sdf, predf, select)
+            gaps[f.effect] = {**{f"{k}_before": v for k, v in before.items()},
+                              **{f"{k}_after": v for k, v in after_.items()}}
+        best = None
+        for row in rows:
+            f = row["fit"]
+            if np.isfinite(row["gain_holdout"]):
+                score = row["gain_holdout"]
+                strong = row["gain_train"] > row["bic_penalty"] and score > HOLDOUT_MIN
+            else:  # no held-out window: the information criterion alone decides
+                score = row["gain_train"] - row["bic_penalty"]
+                strong = score > HOLDOUT_MIN
+            row["eligible"] = bool(f.n_params > 0 and strong and not row["at_bound"])
+            if row["eligible"] and (best is None or score > best[0]):
+                best = (score, f)
+        winner = best[1] if best else None
+        after = winner or base
+        r1, sd1, pred1 = cache[after.effect]
+        left = res.bands(train_data, r1[self.train], sd1[self.train], self.modes(after.phi))
+        return Diagnosis(rows=rows, winner=winner, base=base, phi_before=phi_before, bands_before=found,
+                         bands_after=left, residual_before=(r0, sd0), residual_after=(r1, sd1), gaps=gaps,
+                         parameter_names=tuple(p.name for p in self.parameters), diagnoser=self)
+
+    def _gaps(self, r, sd, pred, select) -> dict:
+        out = {}
+        w = res_trapezoid(self.data.omega)
+        for role, which in (("train", self.train), ("holdout", self.holdout)):
+            sel = select & which[:, None, None]
+            out[f"gap_{role}"] = res.gap(r, sd, sel)
+            chans = select.any(axis=(0, 2))
+            m = self.data.mask & which[:, None, None] & chans[None, :, None]
+            meas = np.sqrt((self.data.measured * m) @ w)
+            model = np.sqrt((pred * m) @ w)
+            ok = (meas > 0) & (model > 0)
+            out[f"sigma_error_{role}"] = float(np.mean(np.abs(np.log(model[ok] / meas[ok])))) if ok.any() else np.nan
+        return out
+
+
+def res_trapezoid(x: np.ndarray) -> np.ndarray:
+    w = np.zeros_like(x)
+    dx = np.diff(x)
+    w[:-1] += dx / 2
+    w[1:] += dx / 2
+    return w
+
+
+def _at_bound(effect, params: dict) -> list[str]:
+    """Parameters pinned at the edge of their physical range (the data push beyond what the effect can be);
+    a lower bound that switches the effect off (q = 0, a vanishing moonpool) does not count."""
+    if effect is None:
+        return []
+    out = []
+    for q in effect.parameters:
+        span = q.upper - q.lower
+        v = params[q.name]
+        if v >= q.upper - 0.01 * span or (v <= q.lower + 0.01 * span and q.lower != q.initial):
+            out.append(q.name)
+    return out
+
+
+def _band_selection(data: WindowSet, found) -> np.ndarray:
+    """Bins × channels of the located misfit bands (all analysed bins when none): (nw, nc, nf)."""
+    if not found:
+        return data.mask.copy()
+    sel = np.zeros(data.mask.shape[1:], dtype=bool)
+    for b in found:
+        sel |= b.channel_mask[:, None] & b.bins[None, :]
+    return data.mask & sel[None]
+
+
+@dataclass
+class Diagnosis:
+    rows: list[dict]
+    winner: Fit | None
+    base: Fit
+    phi_before: np.ndarray
+    bands_before: list
+    bands_after: list
+    residual_before: tuple
+    residual_after: tuple
+    gaps: dict  # per candidate: gap_/sigma_error_ {train, holdout} _ {before, after}, in the bins it affects
+    parameter_names: tuple = ()
+    diagnoser: object = None
+
+    @property
+    def named(self) -> str | None:
+        return self.winner.effect if self.winner else None
