@@ -45,7 +45,8 @@ def images(page: str) -> list[bytes]:
 def test_report_line_ends_with_the_page_path(reported):
     out, _, stdout = reported
     lines = stdout.strip().splitlines()
-    assert [ln.split(":")[0] for ln in lines] == ["ingest", "windows", "filter", "identify", "tune", "report"]
+    assert [ln.split(":")[0] for ln in lines] == ["ingest", "windows", "filter", "identify", "tune", "diagnose",
+                                                 "report"]
     assert lines[-1].endswith(str(out / "report.html"))
     assert (out / "report.html").is_file() and (out / "summary.parquet").is_file()
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary left behind
@@ -60,7 +61,11 @@ def test_page_is_self_contained_and_its_plots_decode(reported):
     assert "<script" not in page.lower() and "@import" not in page and "url(" not in page
     for anchor in SECTIONS:
         assert f'<section id="{anchor}">' in page, anchor
-    assert 'id="diagnosis"' not in page  # no diagnosis.parquet: the section is left out
+    # seatune run includes diagnose: its verdict, evidence table and residual map are on the page
+    diag = page[page.index('<section id="diagnosis">'):]
+    diag = diag[:diag.index("</section>")]
+    assert "explains the misfit" in diag or "No known effect explains" in diag or "no effect named" in diag
+    assert "Evidence per candidate effect" in diag and "Residual map" in diag
     pngs = images(page)
     assert len(pngs) == page.count("<img ") >= 8
     for data in pngs:

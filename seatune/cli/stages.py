@@ -10,7 +10,7 @@ import click
 from seatune.cli.main import cli, handle_errors
 from seatune.io.atomic import remove_stale_temps
 
-ORDER = ("ingest", "windows", "filter", "identify", "tune", "report")
+ORDER = ("ingest", "windows", "filter", "identify", "tune", "diagnose", "report")
 
 
 def _line(stage: str, summary: dict, seconds: float) -> str:
@@ -25,6 +25,8 @@ def _line(stage: str, summary: dict, seconds: float) -> str:
                 f"{summary['hindcast_hours']} hindcast hours; {fixed} ({seconds:.0f} s)")
     if stage == "tune":
         return _tune_line(summary, seconds)
+    if stage == "diagnose":
+        return _diagnose_line(summary, seconds)
     if stage == "windows":
         return (f"windows: {summary['accepted']} of {summary['candidates']} candidates accepted, "
                 f"{summary['accepted_minutes']:.0f} min free floating ({seconds:.0f} s)")
@@ -47,6 +49,22 @@ def _tune_line(summary: dict, seconds: float) -> str:
             f"over {summary['holdout']} windows ({seconds:.0f} s)")
 
 
+def _diagnose_line(s: dict, seconds: float) -> str:
+    where = "; ".join(s["bands_before"]) or "no band of systematic misfit"
+    gap = (f"held-out gap {s['gap_before']:.3f} → {s['gap_after']:.3f}, σ error {100 * s['sigma_before']:.1f} % → "
+           f"{100 * s['sigma_after']:.1f} %")
+    if s["named"]:
+        fitted = ", ".join(f"{k} {v:.3g}" for k, v in s["fitted"].items())
+        verdict = (f"named {s['named']} ({fitted}; held-out gain {s['gain_holdout']:.1f} nats), {gap}; "
+                   f"augmented vessel: {s['augmented']}")
+    elif s["bands_before"]:
+        verdict = "no known effect explains the misfit (unexplained, see diagnosis.parquet)"
+    else:
+        verdict = "no effect needed"
+    return (f"diagnose: {s['candidates']} candidate effects on {s['windows']} windows ({s['holdout']} held out); "
+            f"misfit: {where}; {verdict} ({seconds:.0f} s)")
+
+
 def _report_line(summary: dict, seconds: float) -> str:
     if summary.get("skipped"):
         return f"report: up to date (skipped): {summary['path']}"
@@ -58,6 +76,7 @@ def _report_line(summary: dict, seconds: float) -> str:
 def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = (), progress=None) -> None:
     """Run the stages up to `last`; `progress(stage)` (optional) is called as each stage starts."""
     from seatune.io.run_yaml import Run
+    from seatune.pipeline.diagnose import diagnose_stage
     from seatune.pipeline.filter import filter_stage
     from seatune.pipeline.identify import identify_stage
     from seatune.pipeline.ingest import ingest
@@ -79,6 +98,7 @@ def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = (), progress=N
               "filter": lambda f: filter_stage(run, model, echo=click.echo, force=f),
               "identify": lambda f: identify_stage(run, model, echo=click.echo, force=f),
               "tune": lambda f: tune_stage(run, model, echo=click.echo, force=f),
+              "diagnose": lambda f: diagnose_stage(run, model, echo=click.echo, force=f),
               "report": lambda f: report_stage(run, model, echo=click.echo, force=f)}
     redo = False
     for stage in ORDER[: ORDER.index(last) + 1]:
@@ -107,5 +127,8 @@ filter_ = _command("filter", "Adaptive lowpass cutoff, σ, Tz and Welch spectra 
 identify = _command("identify", "RAOs and natural frequencies → raos.parquet, natural_frequencies.parquet.")
 tune = _command("tune", "Loading parameters tuned window by window (DBI or UKF) → tuning_history.parquet, "
                         "tuned_vessel.yaml, validation.parquet.")
+diagnose = _command("diagnose", "Where the tuned model still misfits, the known effect that explains it, fitted "
+                                "and checked on held-out windows → diagnosis.parquet, diagnosis_residuals.parquet, "
+                                "augmented_vessel.yaml.")
 report = _command("report", "One self-contained page an engineer reads instead of the tables → report.html, "
                             "summary.parquet (key figures, one row).")

@@ -183,6 +183,17 @@ class PredictSettings(Strict):
         return [float(h) for h in step * np.arange(int(np.ceil(360.0 / step - 1e-9)))]
 
 
+class DiagnoseSettings(Strict):
+    """`seatune diagnose`: the candidate effects and the band analysed."""
+
+    effects: list[str] | None = None  # default: the whole library (seatune/diagnosis/effects.py)
+    channels: list[str] | None = None  # default: tuning.channels, else every filtered channel
+    omega_min: PositiveFloat = 0.25  # rad/s; bins below (and above each channel's filter cutoff) are not analysed
+    omega_max: PositiveFloat = 2.0  # rad/s
+    relative_floor: Annotated[float, Field(gt=0, lt=1)] = 0.03  # bins below this × the channel's peak: noise
+    moonpool_position: tuple[float, float] = (0.0, 0.0)  # [x, y] m of a suspected moonpool, body frame
+
+
 class RunSpec(Strict):
     name: str
     run_dir: str
@@ -197,6 +208,7 @@ class RunSpec(Strict):
     identify: IdentifySettings = IdentifySettings()
     tuning: TuningSettings = TuningSettings()
     predict: PredictSettings | None = None
+    diagnose: DiagnoseSettings = DiagnoseSettings()
 
 
 class Run:

@@ -165,6 +165,8 @@ class VesselSpec(_Strict):
     loading: LoadingSpec
     channels: list[ChannelSpec] = []
     priors: dict[str, PriorSpec] = {}
+    # physical effects added by `seatune diagnose` ({kind: <effect>, <parameters>}); recorded, not yet in tuning
+    effects: list[dict] = []
 
     @field_validator("drafts")
     @classmethod

@@ -22,6 +22,7 @@ from seatune.errors import UserError
 REQUIRED = ("motions.parquet", "waves.parquet", "windows.parquet", "window_stats.parquet", "raos.parquet",
             "natural_frequencies.parquet")
 OPTIONAL = ("tuning_history.parquet", "validation.parquet", "tuned_vessel.yaml", "diagnosis.parquet",
+            "diagnosis_residuals.parquet",
             "prediction.parquet")
 TRACK_COLUMNS = ["time", "record", "lat", "lon", "sog", "heading_deg"]
 
@@ -128,6 +129,8 @@ def report_stage(run, vessel, echo=print, force: bool = False) -> dict:
         else {},
         diagnosis=pd.read_parquet(diag_path) if diag_path.exists() else None,
         diagnosis_units=column_units(diag_path) if diag_path.exists() else {},
+        diagnosis_residuals=(pd.read_parquet(run.artefact("diagnosis_residuals.parquet"))
+                             if run.artefact("diagnosis_residuals.parquet").exists() else None),
         artefacts=[(p.name, p.stat().st_size, recorded_fingerprint(p) or "") for p in sorted(run.run_dir.iterdir())
                    if p.is_file() and not p.name.startswith(".") and p.name not in ("report.html", "summary.parquet")])
     means = posterior_means(history)

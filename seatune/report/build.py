@@ -336,19 +336,47 @@ def validation_section(inp: ReportInputs) -> str:
 
 
 def diagnosis_section(inp: ReportInputs) -> str | None:
+    """seatune diagnose: the verdict, the evidence per candidate, before / after gaps and the residual map."""
     d = inp.diagnosis
-    if d is None:
+    if d is None or d.empty:
         return None
-    cells = d.copy()
-    for c in cells.columns:  # lists / dicts (fitted parameters) as text
-        if cells[c].map(lambda x: isinstance(x, list | tuple | dict | np.ndarray)).any():
-            cells[c] = cells[c].map(lambda x: ", ".join(map(str, x)) if isinstance(x, list | tuple | np.ndarray)
-                                    else (", ".join(f"{k}={v}" for k, v in x.items()) if isinstance(x, dict) else x))
-    body = H.table(cells, inp.diagnosis_units, caption="Candidate effects (diagnosis.parquet)") if len(d) else \
-        H.note("diagnosis.parquet has no row.")
+    chosen = d[d["selected"]]
+    row = chosen.iloc[0] if len(chosen) else d[d["effect"] == "none"].iloc[0]
+    if len(chosen):
+        verdict = (f"<b>{H.esc(row['effect'])}</b> explains the misfit: fitted {H.esc(row['fitted'])}; held-out "
+                   f"log-likelihood gain {row['gain_holdout']:.1f} nats; held-out gap in its band "
+                   f"{row['gap_before_holdout']:.3f} → {row['gap_after_holdout']:.3f}, σ error "
+                   f"{100 * row['sigma_error_before_holdout']:.1f} % → {100 * row['sigma_error_after_holdout']:.1f} %."
+                   f" Written to augmented_vessel.yaml.")
+    elif row["bands_before"] != "no band of systematic misfit":
+        verdict = "<b>No known effect explains the misfit</b>; the unexplained bands are listed below."
+    else:
+        verdict = "The tuned model fits: no band of systematic misfit, no effect named."
+    body = f'<p class="intro">{verdict}</p>' + H.para("Misfit located on the training windows: "
+                                                      + row["bands_before"], "")
+    if len(chosen):
+        body += H.para("Left after adding it: " + row["bands_after"], "")
+    cols = ["effect", "fitted", "gain_train", "gain_holdout", "bic_penalty", "at_bound", "eligible", "selected",
+            "gap_before_holdout", "gap_after_holdout", "sigma_error_before_holdout", "sigma_error_after_holdout"]
+    body += H.table(d[cols], inp.diagnosis_units, caption="Evidence per candidate effect (diagnosis.parquet): gains "
+                    "are log-likelihood over the loading refitted without effect; gaps are the systematic RMS of "
+                    "ln(measured/model) in the bins the candidate changes")
+    res = inp.diagnosis_residuals
+    if res is not None and not res.empty:
+        used = res[res["used"]]
+        worst = (used.assign(a=used["log_ratio_before"].abs()).groupby("channel")["a"].mean()
+                 .sort_values(ascending=False).index[:3].tolist())
+        after = f"after: {row['effect']}" if len(chosen) else "after: refitted, no effect"
+        body += H.figure(P.png(P.residual_maps(res, worst, after)),
+                         "Residual map ln(measured / model) over ω × window for the three most misfitting channels, "
+                         "before and after (red: measured above the model)", "residual map before and after")
+    descriptions = "".join(f"<li><b>{H.esc(r.effect)}</b>: {H.esc(r.signature)}</li>" for r in d.itertuples()
+                           if r.effect != "none")
+    body += H.details("The candidate effects and their signatures", f"<ul>{descriptions}</ul>")
     return H.section("diagnosis", "Diagnosis", body,
-                     "Where the tuned model still disagrees with the measurements: the candidate physical effects, "
-                     "their evidence and the gap before / after each.")
+                     "Where the tuned model still disagrees with the measurements, which known physical effect "
+                     "explains it (fitted on the training windows with the loading, scored on the held-out ones) "
+                     "and how much of the gap it closes.")
 
 
 def prediction_section(inp: ReportInputs) -> str | None:

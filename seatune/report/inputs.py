@@ -45,6 +45,7 @@ class ReportInputs:
     prediction_units: dict[str, str] = field(default_factory=dict)
     diagnosis: pd.DataFrame | None = None
     diagnosis_units: dict[str, str] = field(default_factory=dict)
+    diagnosis_residuals: pd.DataFrame | None = None  # diagnosis_residuals.parquet
     artefacts: list[tuple[str, int, str]] = field(default_factory=list)  # (file, bytes, fingerprint)
 
     def channel_unit(self, channel: str) -> str:

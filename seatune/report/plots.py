@@ -341,3 +341,33 @@ def exceedance_polar(pred: pd.DataFrame, title: str) -> Figure:
     ax.set_title(title, fontsize=10)
     ax.legend(loc="lower left", bbox_to_anchor=(-0.15, -0.12), fontsize=8)
     return fig
+
+
+def residual_maps(rows: pd.DataFrame, channels: list[str], title_after: str) -> Figure:
+    """Log spectral ratio ln(measured / model) over ω × window, before and after the diagnosis, per channel;
+    held-out windows marked; bins not analysed blank."""
+    windows = list(dict.fromkeys(rows["window_id"]))
+    omega = np.sort(rows["omega"].unique())
+    fig = Figure(figsize=(11.5, 1.0 + 1.9 * len(channels)), layout="constrained")
+    axes = np.atleast_2d(fig.subplots(len(channels), 2, sharex=True, sharey=True, squeeze=False))
+    image = None
+    for i, ch in enumerate(channels):
+        part = rows[rows["channel"] == ch]
+        for j, (col, label) in enumerate((("log_ratio_before", "tuned model before"),
+                                          ("log_ratio_after", title_after))):
+            grid = part.pivot(index="window_id", columns="omega", values=col).reindex(index=windows, columns=omega)
+            used = part.pivot(index="window_id", columns="omega", values="used").reindex(index=windows, columns=omega)
+            values = np.where(used.fillna(False).to_numpy(dtype=bool), grid.to_numpy(dtype=float), np.nan)
+            ax = axes[i, j]
+            image = ax.pcolormesh(omega, np.arange(len(windows)), values, cmap="RdBu_r", vmin=-1.5, vmax=1.5,
+                                  shading="nearest")
+            held = rows.drop_duplicates("window_id").set_index("window_id").loc[windows, "role"] == "holdout"
+            ax.set_yticks(range(len(windows)), [f"{w}{' (held out)' if h else ''}" for w, h in zip(windows, held,
+                                                                                               strict=True)],
+                          fontsize=7.5)
+            ax.set_title(f"{ch}: {label}", fontsize=9)
+            if i == len(channels) - 1:
+                ax.set_xlabel("ω [rad/s]")
+    if image is not None:
+        fig.colorbar(image, ax=axes, shrink=0.8, label="ln(measured / model) [-]")
+    return fig

@@ -1,0 +1,227 @@
+"""`seatune diagnose`: where the tuned model and the measurements still disagree, which known physical effect
+explains it, and how much of the gap adding it closes on held-out windows (issue 8).
+
+Per accepted window (the tune stage's roles: every `holdout_every`-th is held out): the Welch spectra of the
+filtered channels (window_spectra.parquet, bins up to each channel's cutoff) against the tuned model's expected
+Welch spectra in the hindcast's directional sea at the window. Residuals locate bands of systematic misfit;
+every candidate effect of the library is fitted with the tuned loading parameters on the training windows and
+scored on the held-out ones (diagnosis/select.py). Writes diagnosis.parquet (one row per candidate, DESIGN §5),
+diagnosis_residuals.parquet (window × channel × ω, before and after) and, when an effect is named,
+augmented_vessel.yaml (the tuned vessel with the refitted loading and the effect).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import yaml
+
+from seatune.errors import UserError
+
+DIAGNOSIS_UNITS = {
+    "effect": "", "signature": "", "n_params": "", "fitted": "JSON, parameter units in fitted_units",
+    "fitted_std": "JSON", "fitted_units": "JSON", "loading": "JSON, loading parameter units (SI)",
+    "nll_train": "nat", "nll_holdout": "nat", "gain_train": "nat", "gain_holdout": "nat", "bic_penalty": "nat",
+    "at_bound": "", "eligible": "", "selected": "", "gap_before_train": "", "gap_after_train": "",
+    "gap_before_holdout": "",
+    "gap_after_holdout": "", "sigma_error_before_train": "", "sigma_error_after_train": "",
+    "sigma_error_before_holdout": "", "sigma_error_after_holdout": "", "bands_before": "", "bands_after": "",
+}
+RESIDUAL_UNITS = {"window_id": "", "role": "", "channel": "", "omega": "rad/s", "log_ratio_before": "",
+                  "log_ratio_after": "", "z_before": "", "z_after": "", "used": ""}
+
+
+def body_wave(S2d: np.ndarray, dirs_from: np.ndarray, heading_deg: float, grid_rad: np.ndarray) -> np.ndarray:
+    """S(ω, D) on coming-from directions → S(ω, β_b)·Δβ on the database's body-relative directions (DESIGN §3)."""
+    from seatune.diagnosis.effects import _direction_weights
+
+    d_dir = np.radians(np.diff(np.r_[dirs_from, dirs_from[0] + 360.0]).mean())
+    beta = np.mod(heading_deg - np.asarray(dirs_from, dtype=float) - 180.0, 360.0)
+    return (S2d * d_dir) @ _direction_weights(beta, np.degrees(grid_rad))
+
+
+def tuned_phi(run, parameters) -> np.ndarray:
+    """The tune stage's posterior means (the last update of tuning_history.parquet)."""
+    hist = pd.read_parquet(run.artefact("tuning_history.parquet"))
+    last = hist[hist["update"] == hist["update"].max()].set_index("parameter")
+    return np.array([float(last.loc[p.name, "mean"]) for p in parameters])
+
+
+def window_set(run, vessel, channels):
+    """The WindowSet of the run's accepted windows with the tune stage's roles."""
+    from seatune.diagnosis.model import WindowSet, analysis_mask, welch_grid
+    from seatune.io.hindcast_readers import read_hindcast
+    from seatune.pipeline.identify import window_wave_spectrum
+
+    windows = pd.read_parquet(run.artefact("windows.parquet"))
+    stats = pd.read_parquet(run.artefact("window_stats.parquet"))
+    spectra = pd.read_parquet(run.artefact("window_spectra.parquet"))
+    motions = pd.read_parquet(run.artefact("motions.parquet"), columns=["time", "lat", "lon"])
+    hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
+    settings = run.spec.diagnose
+    segment = run.spec.filter.welch_segment_s
+    acc = windows[windows["accepted"]].sort_values("start")
+    if acc.empty:
+        raise UserError(str(run.path), "windows", "no accepted window to diagnose")
+    db = vessel.db
+    omega_all = np.sort(spectra["omega"].unique())
+    lo = max(settings.omega_min, db.omega[0])
+    hi = min(settings.omega_max, db.omega[-1])
+    d = 2 * np.pi / segment
+    bins = omega_all[(omega_all >= lo - 0.5 * d) & (omega_all <= hi + 0.5 * d)]
+    if bins.size < 4:
+        raise UserError(str(run.path), "diagnose", f"fewer than 4 Welch bins in {lo:.2f}–{hi:.2f} rad/s")
+    fine, index, kernel = welch_grid(bins, segment)
+    k = run.spec.tuning.holdout_every
+    ids, roles, measured, dof, cutoff, waves, rows = [], [], [], [], [], [], []
+    for i, row in enumerate(acc.itertuples()):
+        sp = spectra[spectra["window_id"] == row.window_id]
+        st = stats[stats["window_id"] == row.window_id].set_index("channel")
+        m, nu = [], []
+        for c in channels:
+            part = sp[sp["channel"] == c].set_index("omega").sort_index()
+            m.append(np.interp(bins, part.index.to_numpy(), part["S"].to_numpy()))
+            nu.append(float(part["dof"].iloc[0]))
+        mid = row.start + (row.end - row.start) / 2
+        j = int(np.clip(motions["time"].searchsorted(mid), 0, len(motions) - 1))
+        S2d, dirs, _ = window_wave_spectrum(hc, row, motions["lat"].iloc[j], motions["lon"].iloc[j], fine)
+        ids.append(str(row.window_id))
+        roles.append("holdout" if k and (i % k == k - 1) else "train")
+        measured.append(m)
+        dof.append(nu)
+        cutoff.append([2 * np.pi * float(st.loc[c, "cutoff_hz"]) for c in channels])
+        waves.append(body_wave(S2d, dirs, row.heading_deg, db.wave_direction))
+        rows.append(row)
+    if "train" not in roles:
+        roles[0] = "train"
+    measured = np.array(measured)
+    mask = analysis_mask(measured, bins, lo, np.minimum(np.array(cutoff), hi), rel=settings.relative_floor)
+    return WindowSet(ids, np.array(roles), bins, fine, index, kernel, list(channels), measured, np.array(dof), mask,
+                     np.array(waves), np.array([r.hs for r in rows]), np.array([r.tp for r in rows]),
+                     np.array([_mean_beta(w, db.wave_direction) for w in waves]),
+                     np.array([r.heading_deg for r in rows]), np.array([r.sog for r in rows]))
+
+
+def _mean_beta(wave: np.ndarray, grid: np.ndarray) -> float:
+    e = wave.sum(axis=0)
+    return float(np.degrees(np.arctan2((e * np.sin(grid)).sum(), (e * np.cos(grid)).sum())) % 360.0)
+
+
+def diagnosis_table(diag, effects, bands_after: dict) -> pd.DataFrame:
+    from seatune.diagnosis.residuals import describe
+
+    by_name = {e.name: e for e in effects}
+    before = "; ".join(describe(b) for b in diag.bands_before) or "no band of systematic misfit"
+    out = []
+    for r in diag.rows:
+        f = r["fit"]
+        eff = by_name.get(f.effect)
+        g = diag.gaps[f.effect]
+        out.append({
+            "effect": f.effect, "signature": eff.signature if eff else "the tuned model refitted, no effect",
+            "n_params": f.n_params, "fitted": json.dumps({k: round(v, 6) for k, v in f.params.items()}),
+            "fitted_std": json.dumps({k: round(v, 6) for k, v in f.std.items()}),
+            "fitted_units": json.dumps({q.name: q.unit for q in eff.parameters} if eff else {}),
+            "loading": json.dumps({p: round(float(v), 6) for p, v in zip(diag.parameter_names, f.phi, strict=True)}),
+            "nll_train": f.nll_train, "nll_holdout": f.nll_holdout, "gain_train": r["gain_train"],
+            "gain_holdout": r["gain_holdout"], "bic_penalty": r["bic_penalty"], "at_bound": r["at_bound"],
+            "eligible": bool(r["eligible"]),
+            "selected": diag.winner is not None and f is diag.winner,
+            **{f"{k}_{when}_{role}": g[f"{k}_{role}_{when}"] for k in ("gap", "sigma_error")
+               for when in ("before", "after") for role in ("train", "holdout")},
+            "bands_before": before, "bands_after": bands_after.get(f.effect, "")})
+    return pd.DataFrame(out, columns=list(DIAGNOSIS_UNITS))
+
+
+def residual_table(data, diag) -> pd.DataFrame:
+    (r0, sd0), (r1, sd1) = diag.residual_before, diag.residual_after
+    nw, nc, nf = r0.shape
+    idx = np.indices((nw, nc, nf)).reshape(3, -1)
+    return pd.DataFrame({
+        "window_id": np.array(data.window_ids)[idx[0]], "role": data.roles[idx[0]],
+        "channel": np.array(data.channels)[idx[1]], "omega": data.omega[idx[2]],
+        "log_ratio_before": r0.ravel(), "log_ratio_after": r1.ravel(), "z_before": (r0 / sd0).ravel(),
+        "z_after": (r1 / sd1).ravel(), "used": data.mask.ravel()})
+
+
+def augmented_vessel_yaml(run, diag, effect, path: Path) -> None:
+    """The tuned vessel YAML with the refitted loading and the named effect under `effects:`."""
+    from seatune.io.atomic import atomic_path
+
+    data = yaml.safe_load(run.artefact("tuned_vessel.yaml").read_text())
+    w = diag.winner
+    for name, value in zip(diag.parameter_names, w.phi, strict=True):
+        data["loading"][name] = float(value)
+        data.setdefault("priors", {}).setdefault(name, {})["mean"] = float(value)
+    entry = {"kind": w.effect, **{k: float(v) for k, v in w.params.items()}}
+    if w.effect == "moonpool":
+        entry.update(x=float(effect.x), y=float(effect.y))
+    data["effects"] = [*(data.get("effects") or []), entry]
+    data["description"] = (data.get("description", "") + f" Diagnosed by seatune: {w.effect} added.").strip()
+    with atomic_path(path) as tmp:
+        tmp.write_text(yaml.safe_dump(data, sort_keys=False, allow_unicode=True))
+
+
+def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
+    from seatune.diagnosis.effects import library
+    from seatune.diagnosis.residuals import bands, describe
+    from seatune.diagnosis.select import Diagnoser
+    from seatune.io.parquet import write_table
+    from seatune.io.rundir import fingerprint, is_fresh
+    from seatune.pipeline.tune import tuning_parameters
+
+    settings = run.spec.diagnose
+    src = [run.artefact(n) for n in ("windows.parquet", "window_stats.parquet", "window_spectra.parquet",
+                                     "motions.parquet", "tuning_history.parquet", "tuned_vessel.yaml")]
+    fp = fingerprint(src + [run.hindcast_path, run.vessel_path],
+                     {"stage": "diagnose", "diagnose": settings.model_dump(),
+                      "holdout_every": run.spec.tuning.holdout_every,
+                      "uncertainty": run.spec.hindcast.uncertainty.model_dump()})
+    outs = [run.artefact(n) for n in ("diagnosis.parquet", "diagnosis_residuals.parquet")]
+    augmented = run.artefact("augmented_vessel.yaml")
+    if not force and is_fresh(outs, fp):
+        return {"skipped": True}
+    parameters = tuning_parameters(run, vessel)
+    available = set(pd.read_parquet(src[1], columns=["channel"])["channel"])
+    channels = settings.channels or run.spec.tuning.channels or [c.name for c in vessel.channels
+                                                                 if c.name in available]
+    missing = [c for c in channels if c not in available]
+    if missing:
+        raise UserError(str(run.path), "diagnose.channels", f"not among the filtered channels: {', '.join(missing)}")
+    try:
+        effects = library(settings.effects, moonpool_position=settings.moonpool_position)
+    except KeyError as err:
+        raise UserError(str(run.path), "diagnose.effects", f"unknown effect(s): {err.args[0]}") from None
+    data = window_set(run, vessel, channels)
+    diag = Diagnoser(vessel, parameters, data, tuned_phi(run, parameters),
+                     hs_rel_std=run.spec.hindcast.uncertainty.hs_rel_std,
+                     tp_std_s=run.spec.hindcast.uncertainty.tp_std_s).run(effects)
+    train = data.roles == "train"
+    by_name = {e.name: e for e in effects}
+    left = {}
+    for r in diag.rows:  # misfit each candidate leaves on the training windows
+        f = r["fit"]
+        rf, sdf, _ = diag.diagnoser.residuals(f.phi, by_name.get(f.effect), f.params)
+        found = bands(data.subset(train), rf[train], sdf[train], diag.diagnoser.modes(f.phi))
+        left[f.effect] = "; ".join(describe(b) for b in found) or "none left"
+    table = diagnosis_table(diag, effects, left)
+    meta = {"fingerprint": fp}
+    if diag.winner is not None:
+        augmented_vessel_yaml(run, diag, by_name[diag.winner.effect], augmented)
+    elif augmented.exists():
+        augmented.unlink()  # a previous diagnosis' effect no longer holds
+    write_table(residual_table(data, diag), outs[1], RESIDUAL_UNITS, meta)
+    write_table(table, outs[0], DIAGNOSIS_UNITS, meta)
+    chosen = table[table["selected"]]
+    row = chosen.iloc[0] if len(chosen) else table[table["effect"] == "none"].iloc[0]
+    return {"skipped": False, "windows": len(data.window_ids), "holdout": int((~train).sum()),
+            "candidates": len(table) - 1, "named": diag.named, "gain_holdout": float(row["gain_holdout"]),
+            "fitted": json.loads(row["fitted"]), "bands_before": [describe(b) for b in diag.bands_before],
+            "bands_after": row["bands_after"], "gap_before": float(row["gap_before_holdout"]),
+            "gap_after": float(row["gap_after_holdout"]),
+            "sigma_before": float(row["sigma_error_before_holdout"]),
+            "sigma_after": float(row["sigma_error_after_holdout"]),
+            "augmented": str(augmented) if diag.winner is not None else None}
