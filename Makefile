@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 install: $(STAMP)
 
 # The main job on the embedded default: the sample vessel, then every stage on sample_logs/ (ingest → windows →
-# filter → identify → tune → report; those already up to date are skipped); ends with the report's path.
+# filter → identify → tune → diagnose → report; those already up to date are skipped); ends with the report's path.
 run: $(STAMP)
 	$(BIN)/seatune vessel info configs/vessels/sample_osv.yaml
 	$(BIN)/seatune run configs/runs/sample.yaml

@@ -7,6 +7,7 @@ from benchmarks import (
     bench_batch,
     bench_channel_sigma,
     bench_dbi,
+    bench_diagnose,
     bench_filter,
     bench_ingest,
     bench_predict,
@@ -16,7 +17,7 @@ from benchmarks import (
 
 BENCHMARKS = {"channel_sigma": bench_channel_sigma.run, "synthesis": bench_synthesis.run, "filter": bench_filter.run,
               "ingest": bench_ingest.run, "ukf": bench_ukf.run, "dbi": bench_dbi.run, "batch": bench_batch.run,
-              "predict": bench_predict.run}
+              "predict": bench_predict.run, "diagnose": bench_diagnose.run}
 
 if __name__ == "__main__":
     names = sys.argv[1:] or list(BENCHMARKS)

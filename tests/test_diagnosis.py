@@ -179,3 +179,89 @@ def test_hidden_effect_trials_over_many_seeds(sample_model):
         assert err[:, 1].mean() < err[:, 0].mean(), (effect, err)
     clean = _run_trials(sample_model, [None], seeds)
     assert np.mean([d.named is None for _, d, _ in clean]) >= 0.9
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# the stage on sample_logs/ and a full simulated trial
+
+@pytest.fixture(scope="module")
+def diagnosed(tmp_path_factory):
+    from tests.test_tune_sample import sample_run
+
+    tmp = tmp_path_factory.mktemp("diagnose")
+    path = sample_run(tmp)
+    res = run_cli("diagnose", path)
+    assert res.returncode == 0, res.stderr
+    return tmp, path, res.stdout
+
+
+def run_cli(*args):
+    from tests.test_pipeline_sample import run_cli as run
+
+    return run(*args)
+
+
+def test_diagnose_writes_the_design_tables(diagnosed):
+    import pyarrow.parquet as pq
+
+    from seatune.pipeline.diagnose import DIAGNOSIS_UNITS, RESIDUAL_UNITS
+
+    tmp, _, stdout = diagnosed
+    out = tmp / "run"
+    line = stdout.strip().splitlines()[-1]
+    assert line.startswith("diagnose: 8 candidate effects on 3 windows (1 held out)")
+    table = pq.read_table(out / "diagnosis.parquet")
+    assert table.column_names == list(DIAGNOSIS_UNITS)
+    d = table.to_pandas()
+    assert list(d["effect"]) == ["none", *(e for e in EFFECT)]
+    assert d["selected"].sum() <= 1 and d.loc[d["effect"] == "none", "n_params"].item() == 0
+    assert np.isfinite(d[["gain_train", "gain_holdout", "gap_before_holdout", "gap_after_holdout"]]).all().all()
+    resid = pq.read_table(out / "diagnosis_residuals.parquet").to_pandas()
+    assert list(resid.columns) == list(RESIDUAL_UNITS) and resid["used"].any()
+    # the sample hides no effect: whatever misfit the hindcast's errors leave is reported, not "explained"
+    assert "no known effect explains the misfit" in line or "no effect needed" in line
+    assert not (out / "augmented_vessel.yaml").exists()
+    again = run_cli("diagnose", tmp / "run.yaml")
+    assert "diagnose: up to date (skipped)" in again.stdout
+
+
+def test_unknown_effect_is_one_clear_line_and_exit_2(diagnosed):
+    tmp, path, _ = diagnosed
+    import yaml
+
+    data = yaml.safe_load(path.read_text())
+    data["diagnose"] = {"effects": ["moonpool", "gremlins"]}
+    bad = tmp / "bad.yaml"
+    bad.write_text(yaml.safe_dump(data))
+    before = (tmp / "run" / "diagnosis.parquet").read_bytes()
+    res = run_cli("diagnose", bad)
+    assert res.returncode == 2
+    assert res.stderr.strip().count("\n") == 0 and "diagnose.effects" in res.stderr and "gremlins" in res.stderr
+    assert (tmp / "run" / "diagnosis.parquet").read_bytes() == before  # nothing already written is lost
+
+
+@pytest.mark.slow
+def test_full_simulated_trial_with_a_tank_is_diagnosed(tmp_path):
+    """`seatune simulate` hides an anti-roll tank in the sample scenario; `seatune diagnose` names it and the
+    augmented vessel YAML is a valid vessel with the effect."""
+    import yaml
+
+    from tests.conftest import ROOT
+
+    scen = yaml.safe_load((ROOT / "configs/scenarios/sample_trial.yaml").read_text())
+    scen.update(vessel=str(ROOT / "configs/vessels/sample_osv.yaml"), name="tank_trial",
+                effects=[{"kind": "anti_roll_tank", "zeta_t": 0.1, "mu": 0.08}])
+    (tmp_path / "scenario.yaml").write_text(yaml.safe_dump(scen))
+    assert run_cli("simulate", tmp_path / "scenario.yaml", "--out", tmp_path / "logs").returncode == 0
+    run = yaml.safe_load((ROOT / "configs/runs/sample.yaml").read_text())
+    run.update(run_dir=str(tmp_path / "run"), vessel=str(ROOT / "configs/vessels/sample_osv.yaml"))
+    run["logs"][0]["path"] = str(tmp_path / "logs/tank_trial.mcap")
+    run["logs"][1]["path"] = str(tmp_path / "logs/tank_trial_gnss.csv")
+    run["hindcast"]["path"] = str(tmp_path / "logs/tank_trial_era5.nc")
+    (tmp_path / "run.yaml").write_text(yaml.safe_dump(run))
+    res = run_cli("diagnose", tmp_path / "run.yaml")
+    assert res.returncode == 0, res.stderr
+    assert "named anti_roll_tank" in res.stdout.splitlines()[-1]
+    augmented = tmp_path / "run" / "augmented_vessel.yaml"
+    assert yaml.safe_load(augmented.read_text())["effects"][0]["kind"] == "anti_roll_tank"
+    assert run_cli("vessel", "info", augmented).returncode == 0

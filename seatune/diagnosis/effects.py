@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from seatune.physics.channels import AXES, Channel, point_translation, transfer_vectors
+from seatune.physics.response import trapezoid_weights
 
 
 @dataclass(frozen=True)
@@ -78,7 +79,7 @@ class QuadraticRollDamping(Effect):
         xi0, g = sol[:, :, :-1], sol[:, :, -1]
         h0 = np.einsum("fdb,fdc->fbc", xi0, parts.transfer)
         hg = np.einsum("fd,fdc->fc", g, parts.transfer)
-        w = _trapezoid(om)
+        w = trapezoid_weights(om)
         sigma = np.zeros(parts.wave.shape[0])
         for k in range(self.iterations):
             c = -1j * om[None, :] * (np.sqrt(8.0 / np.pi) * sigma * b2)[:, None]  # (nw, nf)
@@ -252,14 +253,6 @@ def _direction_weights(beta_deg: np.ndarray, grid_deg: np.ndarray) -> np.ndarray
     out[rows, i] += 1 - f
     out[rows, (i + 1) % grid_deg.size] += f
     return out
-
-
-def _trapezoid(x: np.ndarray) -> np.ndarray:
-    w = np.zeros_like(x)
-    dx = np.diff(x)
-    w[:-1] += dx / 2
-    w[1:] += dx / 2
-    return w
 
 
 def library(names=None, moonpool_position=(0.0, 0.0), imu_sensor: str = "imu") -> list[Effect]:

@@ -52,7 +52,7 @@ class Band:
     channel_mask: np.ndarray  # (nc,) bool
 
 
-def find_bands(omega: np.ndarray, z: np.ndarray, channels: list[str], min_bins: int = 2) -> list[tuple]:
+def find_bands(z: np.ndarray, min_bins: int = 2) -> list[tuple]:
     """Contiguous runs of bins where some channel's |z| ≥ Z_BAND (gaps of one bin bridged)."""
     hot = (np.abs(z) >= Z_BAND).any(axis=0)
     if hot.size > 2:  # bridge single-bin gaps
@@ -74,7 +74,7 @@ def bands(data, r: np.ndarray, sd: np.ndarray, modes: dict[str, float]) -> list[
     mask = data.mask
     z = aggregate_z(r, sd, mask)
     out = []
-    for a, b in find_bands(data.omega, z, data.channels):
+    for a, b in find_bands(z):
         bins = np.zeros(data.omega.size, dtype=bool)
         bins[a:b] = True
         zc = np.abs(z[:, bins]).mean(axis=1)

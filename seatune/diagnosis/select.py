@@ -27,6 +27,7 @@ from scipy.special import polygamma
 
 from seatune.diagnosis import residuals as res
 from seatune.diagnosis.model import SpectralModel, WindowSet
+from seatune.physics.response import trapezoid_weights
 
 BIN_CORRELATION = 1.5  # Hann window's equivalent noise bandwidth [bins]
 AFFECTED_CHANGE = 0.1  # a bin is in an effect's band where it changes the expected spectrum by ≥ 10 % (log)
@@ -234,7 +235,7 @@ class Diagnoser:
 
     def _gaps(self, r, sd, pred, select) -> dict:
         out = {}
-        w = res_trapezoid(self.data.omega)
+        w = trapezoid_weights(self.data.omega)
         for role, which in (("train", self.train), ("holdout", self.holdout)):
             sel = select & which[:, None, None]
             out[f"gap_{role}"] = res.gap(r, sd, sel)
@@ -245,14 +246,6 @@ class Diagnoser:
             ok = (meas > 0) & (model > 0)
             out[f"sigma_error_{role}"] = float(np.mean(np.abs(np.log(model[ok] / meas[ok])))) if ok.any() else np.nan
         return out
-
-
-def res_trapezoid(x: np.ndarray) -> np.ndarray:
-    w = np.zeros_like(x)
-    dx = np.diff(x)
-    w[:-1] += dx / 2
-    w[1:] += dx / 2
-    return w
 
 
 def _at_bound(effect, params: dict) -> list[str]:

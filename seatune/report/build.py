@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import html
+import json
 import re
 
 import numpy as np
@@ -358,7 +359,10 @@ def diagnosis_section(inp: ReportInputs) -> str | None:
         body += H.para("Left after adding it: " + row["bands_after"], "")
     cols = ["effect", "fitted", "gain_train", "gain_holdout", "bic_penalty", "at_bound", "eligible", "selected",
             "gap_before_holdout", "gap_after_holdout", "sigma_error_before_holdout", "sigma_error_after_holdout"]
-    body += H.table(d[cols], inp.diagnosis_units, caption="Evidence per candidate effect (diagnosis.parquet): gains "
+    shown = d[cols].assign(fitted=d["fitted"].map(
+        lambda text: ", ".join(f"{k} {v:.3g}" for k, v in json.loads(text).items()) or "–"))
+    units = {**inp.diagnosis_units, "fitted": "units: see diagnosis.parquet fitted_units"}
+    body += H.table(shown, units, caption="Evidence per candidate effect (diagnosis.parquet): gains "
                     "are log-likelihood over the loading refitted without effect; gaps are the systematic RMS of "
                     "ln(measured/model) in the bins the candidate changes")
     res = inp.diagnosis_residuals
