@@ -6,6 +6,7 @@ and the refitted loading moves towards the truth."""
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 from scipy.signal import welch
 from scipy.special import polygamma
@@ -265,3 +266,55 @@ def test_full_simulated_trial_with_a_tank_is_diagnosed(tmp_path):
     augmented = tmp_path / "run" / "augmented_vessel.yaml"
     assert yaml.safe_load(augmented.read_text())["effects"][0]["kind"] == "anti_roll_tank"
     assert run_cli("vessel", "info", augmented).returncode == 0
+    # re-tune with the real backend on the augmented vessel: the loading moves towards the truth (A7's lesson)
+    run.update(vessel=str(augmented), run_dir=str(tmp_path / "retuned"))
+    (tmp_path / "retune.yaml").write_text(yaml.safe_dump(run))
+    assert run_cli("tune", tmp_path / "retune.yaml").returncode == 0
+    truth = {k: scen["truth_loading"][k] for k in ("gmt_fs", "r44", "beta44")}
+    std = {"gmt_fs": 0.15, "r44": 0.6, "beta44": 0.03}
+
+    def distance(run_dir):
+        h = pd.read_parquet(run_dir / "tuning_history.parquet")
+        last = h[h["update"] == h["update"].max()].set_index("parameter")["mean"]
+        return np.sqrt(np.mean([((last[k] - v) / std[k]) ** 2 for k, v in truth.items()]))
+
+    assert distance(tmp_path / "retuned") < distance(tmp_path / "run")
+
+
+def _augmented(tmp_path, vessel, effects):
+    import yaml
+
+    from seatune.pipeline.tune import vessel_yaml_data
+
+    data = vessel_yaml_data(vessel)
+    data["effects"] = effects
+    path = tmp_path / "augmented.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_tuning_forward_model_solves_the_vessel_with_its_effects(tmp_path, sample_model):
+    """ChannelPower (both backends, predict) on a vessel YAML with a tank equals the 7×7 simulator solve."""
+    from seatune.pipeline.vessel import open_vessel
+    from seatune.tuning.forward import ChannelPower
+
+    tank = {"omega_t": 0.5, "zeta_t": 0.1, "mu": 0.08}
+    vessel = open_vessel(_augmented(tmp_path, sample_model, [{"kind": "anti_roll_tank", **tank}]))
+    power = ChannelPower(vessel, ["r44", "beta44"], ["roll", "imu_fy"])(np.array([[8.0, 0.05]]))[:, 0]
+    loading = sample_model.loading(r44=8.0, beta44=0.05)
+    db = sample_model.db
+    inertia, _ = sim.roll_inertia(db, loading)
+    xi, _ = sim.augmented_raos(db, loading, db.omega, [sim.anti_roll_tank_dof(db.omega, db.wave_direction.size,
+                                                                               inertia, **tank)])
+    t = transfer_vectors([sample_model.channel("roll"), sample_model.channel("imu_fy")], db.omega,
+                         np.array([sim.loading_draft(db, loading)]), db.g)[0]
+    expected = np.abs(np.einsum("wbd,wdc->wcb", xi, t)) ** 2
+    assert np.allclose(power, expected, rtol=2e-3, atol=1e-6 * expected.max())
+    plain = ChannelPower(sample_model, ["r44", "beta44"], ["roll", "imu_fy"])(np.array([[8.0, 0.05]]))[:, 0]
+    assert np.abs(plain - power).max() > 0.3 * plain.max()
+
+
+def test_bad_effect_in_the_vessel_yaml_is_a_user_error(tmp_path, sample_model):
+    path = _augmented(tmp_path, sample_model, [{"kind": "anti_roll_tank", "omega_t": 0.5, "zeta_t": 0.1}])
+    res = run_cli("vessel", "info", path)
+    assert res.returncode == 2 and "effects.0" in res.stderr and "mu" in res.stderr

@@ -141,7 +141,7 @@ class AntiRollTank(Effect):
 
 def _sensor_channels(model, sensor: str, kinds) -> list[int]:
     specs = {c.name: c for c in model.vessel.spec.channels}
-    return [j for j, name in enumerate(model.data.channels)
+    return [j for j, name in enumerate(model.channel_names)
             if specs[name].sensor == sensor and specs[name].kind in kinds]
 
 
@@ -270,3 +270,36 @@ def library(names=None, moonpool_position=(0.0, 0.0), imu_sensor: str = "imu") -
 
 EFFECT_NAMES = ("quadratic_roll_damping", "moonpool", "anti_roll_tank", "imu_lever_arm", "imu_misalignment",
                 "hs_bias", "missing_swell", "wave_spreading")
+
+
+#: effects that change the vessel's transfer functions (tuning and prediction can use them); the others act on
+#: the sea (hs_bias, missing_swell, wave_spreading) or depend on the sea state (quadratic_roll_damping)
+MODEL_SIDE = ("moonpool", "anti_roll_tank", "imu_lever_arm", "imu_misalignment")
+
+
+def vessel_effects(entries, kinds=MODEL_SIDE) -> list[tuple[Effect, dict]]:
+    """The vessel YAML's `effects:` entries ({kind, parameters}) of the given kinds as (Effect, params)."""
+    out = []
+    for entry in entries:
+        kind = entry["kind"]
+        if kind not in kinds:
+            continue
+        params = {k: float(v) for k, v in entry.items() if k != "kind"}
+        effect = Moonpool(params.pop("x", 0.0), params.pop("y", 0.0)) if kind == "moonpool" else library([kind])[0]
+        out.append((effect, params))
+    return out
+
+
+def check_entry(entry: dict) -> str | None:
+    """What is wrong with a vessel YAML `effects:` entry, or None."""
+    kind = entry.get("kind") if isinstance(entry, dict) else None
+    if kind not in EFFECT_NAMES:
+        return f"kind must be one of {', '.join(EFFECT_NAMES)}, got {kind!r}"
+    effect = Moonpool() if kind == "moonpool" else library([kind])[0]
+    allowed = {q.name for q in effect.parameters} | ({"x", "y"} if kind == "moonpool" else set())
+    given = set(entry) - {"kind"}
+    if given - allowed or {q.name for q in effect.parameters} - given:
+        return f"{kind} takes {', '.join(sorted(allowed))}; got {', '.join(sorted(given)) or 'none'}"
+    if not all(isinstance(entry[k], int | float) for k in given):
+        return f"{kind}: parameters must be numbers"
+    return None

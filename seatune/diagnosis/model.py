@@ -85,41 +85,54 @@ class ModelParts:
 class SpectralModel:
     """Channel spectra of a vessel over a WindowSet, for a loading condition and an effect."""
 
-    def __init__(self, vessel, parameter_names, data: WindowSet):
+    def __init__(self, vessel, parameter_names, data: WindowSet | None = None, omega: np.ndarray | None = None,
+                 channels=None):
+        """On a WindowSet's fine grid and channels, or (no data: no waves) on `omega` for `channels`."""
         db = vessel.db
         self.vessel = vessel
         self.parameter_names = tuple(parameter_names)
         self.data = data
-        om = data.omega_fine
+        self.omega = data.omega_fine if data is not None else np.asarray(omega, dtype=float)
+        self.channel_names = list(data.channels if data is not None else channels)
+        om = self.omega
         self._A = np.stack([interp_axis0(db.omega, a, om) for a in db.added_mass])  # (nd, nf, 6, 6)
         self._B = np.stack([interp_axis0(db.omega, b, om) for b in db.radiation_damping])
         self._F = np.stack([interp_axis0(db.omega, f, om) for f in db.excitation_force])  # (nd, nf, nb, 6)
-        self._channels = [vessel.channel(c) for c in data.channels]
-        self._base = vessel.loading()
+        self._channels = [vessel.channel(c) for c in self.channel_names]
+        from seatune.diagnosis.effects import vessel_effects
+
+        self.known = vessel_effects(vessel.spec.effects)  # model-side effects already in the vessel YAML
 
     def loading(self, phi: np.ndarray):
         return self.vessel.loading(**{n: float(v) for n, v in zip(self.parameter_names, phi, strict=True)})
 
     def parts(self, phi: np.ndarray) -> ModelParts:
+        return self.parts_of(self.loading(phi))
+
+    def parts_of(self, loading) -> ModelParts:
+        """ModelParts of one loading condition (a Loading of length 1)."""
         from seatune.physics.response import natural_frequencies
 
         db = self.vessel.db
-        loading = self.loading(phi)
         lh = load(db, loading)
         i0, i1, w = (float(a[0]) if k == 2 else int(a[0]) for k, a in enumerate(lh.draft_index))
         A = (1 - w) * self._A[i0] + w * self._A[i1]
         B = (1 - w) * self._B[i0] + w * self._B[i1]
         F = (1 - w) * self._F[i0] + w * self._F[i1]
-        om = self.data.omega_fine[:, None, None]
+        om = self.omega[:, None, None]
         M, C, Bv = lh.mass_matrix[0], lh.stiffness[0], lh.extra_damping[0]
         H = -(om**2) * (M + A) - 1j * om * (B + Bv) + C
-        t = transfer_vectors(self._channels, self.data.omega_fine, lh.draft, db.g)[0]
+        t = transfer_vectors(self._channels, self.omega, lh.draft, db.g)[0]
         w_roll = float(natural_frequencies(db, loading, dofs=(3,))[0, 0])
         a44 = float(np.interp(w_roll, db.omega, (1 - w) * db.added_mass[i0, :, 3, 3] + w * db.added_mass[i1, :, 3, 3]))
-        return ModelParts(omega=self.data.omega_fine, impedance=H, force=F, transfer=t, wave=self.data.wave.copy(),
-                          beta=db.wave_direction, draft=float(lh.draft[0]), mass_matrix=M, stiffness=C,
-                          extra_damping=Bv, added_mass=A, damping=B, omega_roll=w_roll, inertia_roll=M[3, 3] + a44,
-                          g=db.g, rho=db.rho)
+        wave = self.data.wave.copy() if self.data is not None else np.zeros((0, om.shape[0], db.wave_direction.size))
+        parts = ModelParts(omega=self.omega, impedance=H, force=F, transfer=t, wave=wave,
+                           beta=db.wave_direction, draft=float(lh.draft[0]), mass_matrix=M, stiffness=C,
+                           extra_damping=Bv, added_mass=A, damping=B, omega_roll=w_roll, inertia_roll=M[3, 3] + a44,
+                           g=db.g, rho=db.rho)
+        for effect, params in self.known:
+            effect.apply(parts, params, self)
+        return parts
 
     def spectra(self, phi: np.ndarray, effect=None, params: dict | None = None) -> np.ndarray:
         """Expected Welch spectra E[Ŝ_j] at the bins: the model convolved with the segment's spectral window,
@@ -161,3 +174,13 @@ def long_crested_wave(omega: np.ndarray, spectrum: np.ndarray, beta_deg: np.ndar
 
     weights = _direction_weights(np.atleast_1d(beta_deg), np.degrees(grid_rad))  # (nw, nb)
     return np.atleast_2d(spectrum)[:, :, None] * weights[:, None, :]
+
+
+def effect_channel_raos(vessel, loading, channel_names) -> np.ndarray:
+    """Channel transfer functions H_j(ω, β) on the database grid with the vessel YAML's model-side effects, for
+    every condition of `loading`: (N, nw, nb, nc), as physics.response.channel_raos."""
+    model = SpectralModel(vessel, (), omega=vessel.db.omega, channels=channel_names)
+    out = np.empty((len(loading), vessel.db.omega.size, vessel.db.wave_direction.size, len(channel_names)), complex)
+    for n in range(len(loading)):
+        out[n] = model.parts_of(loading.take(slice(n, n + 1))).solve()
+    return out

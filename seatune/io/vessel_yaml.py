@@ -165,7 +165,8 @@ class VesselSpec(_Strict):
     loading: LoadingSpec
     channels: list[ChannelSpec] = []
     priors: dict[str, PriorSpec] = {}
-    # physical effects added by `seatune diagnose` ({kind: <effect>, <parameters>}); recorded, not yet in tuning
+    # physical effects added by `seatune diagnose` ({kind: <effect>, <parameters>}); tuning and prediction solve
+    # the vessel with the model-side ones (moonpool, anti_roll_tank, imu_lever_arm, imu_misalignment)
     effects: list[dict] = []
 
     @field_validator("drafts")
@@ -205,6 +206,12 @@ def _check_consistency(spec: VesselSpec, source: str) -> None:
     for name in ("mass", "displacement"):
         if name in spec.priors and single_draft:
             raise UserError(source, f"priors.{name}", "cannot be tuned with a single draft: give >= 2 drafts")
+    from seatune.diagnosis.effects import check_entry
+
+    for i, entry in enumerate(spec.effects):
+        problem = check_entry(entry)
+        if problem:
+            raise UserError(source, f"effects.{i}", problem)
     for name, prior in spec.priors.items():
         if prior.bounds is not None and prior.mean is not None and not prior.bounds[0] <= prior.mean <= prior.bounds[1]:
             raise UserError(source, f"priors.{name}.mean", f"{prior.mean:g} is outside bounds {list(prior.bounds)}")

@@ -7,7 +7,8 @@ Welch spectra in the hindcast's directional sea at the window. Residuals locate 
 every candidate effect of the library is fitted with the tuned loading parameters on the training windows and
 scored on the held-out ones (diagnosis/select.py). Writes diagnosis.parquet (one row per candidate, DESIGN §5),
 diagnosis_residuals.parquet (window × channel × ω, before and after) and, when an effect is named,
-augmented_vessel.yaml (the tuned vessel with the refitted loading and the effect).
+augmented_vessel.yaml (the vessel with the effect and the loading refitted with it; `seatune tune` on it re-tunes
+with the effect in the model).
 """
 
 from __future__ import annotations
@@ -147,15 +148,19 @@ def residual_table(data, diag) -> pd.DataFrame:
         "z_after": (r1 / sd1).ravel(), "used": data.mask.ravel()})
 
 
-def augmented_vessel_yaml(run, diag, effect, path: Path) -> None:
-    """The tuned vessel YAML with the refitted loading and the named effect under `effects:`."""
+def augmented_vessel_yaml(vessel, diag, effect, path: Path) -> None:
+    """The run's vessel YAML with the named effect under `effects:` and the loading refitted with it as the
+    loading condition; the priors stay the vessel's own, so `seatune tune` on it re-tunes from scratch with the
+    effect in the model."""
     from seatune.io.atomic import atomic_path
+    from seatune.pipeline.tune import vessel_yaml_data
 
-    data = yaml.safe_load(run.artefact("tuned_vessel.yaml").read_text())
+    data = vessel_yaml_data(vessel)
     w = diag.winner
     for name, value in zip(diag.parameter_names, w.phi, strict=True):
         data["loading"][name] = float(value)
-        data.setdefault("priors", {}).setdefault(name, {})["mean"] = float(value)
+        if name == "mass":
+            data["loading"].pop("displacement", None)
     entry = {"kind": w.effect, **{k: float(v) for k, v in w.params.items()}}
     if w.effect == "moonpool":
         entry.update(x=float(effect.x), y=float(effect.y))
@@ -175,7 +180,7 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
 
     settings = run.spec.diagnose
     src = [run.artefact(n) for n in ("windows.parquet", "window_stats.parquet", "window_spectra.parquet",
-                                     "motions.parquet", "tuning_history.parquet", "tuned_vessel.yaml")]
+                                     "motions.parquet", "tuning_history.parquet")]
     fp = fingerprint(src + [run.hindcast_path, run.vessel_path],
                      {"stage": "diagnose", "diagnose": settings.model_dump(),
                       "holdout_every": run.spec.tuning.holdout_every,
@@ -210,7 +215,7 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     table = diagnosis_table(diag, effects, left)
     meta = {"fingerprint": fp}
     if diag.winner is not None:
-        augmented_vessel_yaml(run, diag, by_name[diag.winner.effect], augmented)
+        augmented_vessel_yaml(vessel, diag, by_name[diag.winner.effect], augmented)
     elif augmented.exists():
         augmented.unlink()  # a previous diagnosis' effect no longer holds
     write_table(residual_table(data, diag), outs[1], RESIDUAL_UNITS, meta)

@@ -188,8 +188,8 @@ def history_rows(update: int, window_id: str, backend: str, post) -> list[dict]:
     return rows
 
 
-def tuned_vessel_yaml(vessel, post, path: Path) -> None:
-    """The vessel YAML with the posterior means as loading and the posterior as priors (usable everywhere)."""
+def vessel_yaml_data(vessel) -> dict:
+    """The vessel YAML as data, with the files it names made absolute (it is rewritten into the run dir)."""
     data = yaml.safe_load(Path(vessel.source).read_text())
     if data.get("hydro_database"):
         data["hydro_database"] = str((Path(vessel.source).parent / data["hydro_database"]).resolve())
@@ -198,6 +198,12 @@ def tuned_vessel_yaml(vessel, post, path: Path) -> None:
             for sub in data["hull"].values():
                 if isinstance(sub, dict) and key in sub:
                     sub[key] = str((Path(vessel.source).parent / sub[key]).resolve())
+    return data
+
+
+def tuned_vessel_yaml(vessel, post, path: Path) -> None:
+    """The vessel YAML with the posterior means as loading and the posterior as priors (usable everywhere)."""
+    data = vessel_yaml_data(vessel)
     for i, name in enumerate(post.names):
         data["loading"][name] = float(post.mean[i])
         if name == "mass":
@@ -228,6 +234,12 @@ def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
     if not force and is_fresh(outs, fp) and tuned_path.exists():
         return {"skipped": True}
     parameters = tuning_parameters(run, vessel)
+    from seatune.diagnosis.effects import MODEL_SIDE
+
+    unused = [e["kind"] for e in vessel.spec.effects if e["kind"] not in MODEL_SIDE]
+    if unused:
+        echo(f"tune: note: {', '.join(unused)} (vessel effects) act on the sea or depend on the sea state; "
+             f"tuning solves the vessel without them")
     windows, stats, spectra = (pd.read_parquet(p) for p in src[:3])
     motions = pd.read_parquet(src[3], columns=["time", "lat", "lon"])
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)

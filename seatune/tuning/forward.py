@@ -30,6 +30,9 @@ class ChannelPower:
         self.channel_names = tuple(channel_names)
         self._cache: dict[bytes, np.ndarray] = {}
         self.max_batches = max_batches
+        from seatune.diagnosis.effects import vessel_effects
+
+        self.effects = vessel_effects(vessel.spec.effects)  # model-side effects diagnose added to the vessel
 
     def loading(self, phi: np.ndarray) -> Loading:
         return self.vessel.loading(**{name: phi[:, k] for k, name in enumerate(self.parameter_names)})
@@ -41,7 +44,13 @@ class ChannelPower:
             db = self.vessel.db
             out = np.empty((db.omega.size, phi.shape[0], len(self.channels), db.wave_direction.size), np.float32)
             for start in range(0, phi.shape[0], 2000):
-                h = channel_raos(db, self.loading(phi[start:start + 2000]), self.channels)  # (n, nw, nb, c)
+                loading = self.loading(phi[start:start + 2000])
+                if self.effects:
+                    from seatune.diagnosis.model import effect_channel_raos
+
+                    h = effect_channel_raos(self.vessel, loading, self.channel_names)
+                else:
+                    h = channel_raos(db, loading, self.channels)  # (n, nw, nb, c)
                 out[:, start:start + 2000] = (h.real**2 + h.imag**2).transpose(1, 0, 3, 2)
             if len(self._cache) >= self.max_batches:
                 self._cache.pop(next(iter(self._cache)))
