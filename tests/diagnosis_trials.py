@@ -37,7 +37,7 @@ def sea_states(rng, n: int) -> list[dict]:
             for h, t, b in zip(rng.uniform(1.2, 4.0, n), rng.uniform(7.0, 12.0, n), beta, strict=True)]
 
 
-def window_set(vessel, windows, states, roles, hs_error) -> WindowSet:
+def window_set(vessel, windows, states, roles, hs_error, tp_error=None, beta_error=None) -> WindowSet:
     d = 2 * np.pi / SEGMENT_S
     omega = windows[0]["omega"]
     keep = (omega >= BAND[0] - 0.5 * d) & (omega <= BAND[1] + 0.5 * d)
@@ -45,8 +45,8 @@ def window_set(vessel, windows, states, roles, hs_error) -> WindowSet:
     fine, index, kernel = welch_grid(bins, SEGMENT_S)
     measured = np.stack([w["S"][:, keep] for w in windows])
     hs = np.array([s["hs"] for s in states]) * hs_error  # what the hindcast says
-    tp = np.array([s["tp"] for s in states])
-    beta = np.array([s["beta_deg"] for s in states])
+    tp = np.array([s["tp"] for s in states]) + (0.0 if tp_error is None else tp_error)
+    beta = np.array([s["beta_deg"] for s in states]) + (0.0 if beta_error is None else beta_error)
     wave = long_crested_wave(fine, np.stack([jonswap(fine, h, t, 3.3) for h, t in zip(hs, tp, strict=True)]), beta,
                              vessel.db.wave_direction)
     dof = np.array([[w["dof"]] * len(CHANNELS) for w in windows])
@@ -56,15 +56,18 @@ def window_set(vessel, windows, states, roles, hs_error) -> WindowSet:
 
 
 def trial(vessel, effect: str | None, seed: int, n_windows: int = 9, duration_s: float = 1800.0,
-          hs_rel_std: float = 0.05):
-    """(Diagnosis, truth φ, sea states) of one trial; every third window is held out."""
+          hs_rel_std: float = 0.05, tp_std_s: float = 0.0, dir_std_deg: float = 0.0):
+    """(Diagnosis, truth φ) of one trial; every third window is held out. The model's sea state is the truth with
+    hindcast errors: Hs × e^N(0, hs_rel_std), Tp + N(0, tp_std_s), β + N(0, dir_std_deg)."""
     rng = np.random.default_rng(seed)
     states = sea_states(rng, n_windows)
     windows = simulate_windows(vessel, TRUTH, EFFECTS.get(effect), states, CHANNELS, duration_s, rng,
                                welch_segment_s=SEGMENT_S)
     roles = ["holdout" if i % 3 == 2 else "train" for i in range(n_windows)]
-    data = window_set(vessel, windows, states, roles, np.exp(rng.normal(0.0, hs_rel_std, n_windows)))
+    data = window_set(vessel, windows, states, roles, np.exp(rng.normal(0.0, hs_rel_std, n_windows)),
+                      rng.normal(0.0, tp_std_s, n_windows), rng.normal(0.0, dir_std_deg, n_windows))
     start = np.array([p.prior_mean for p in PARAMETERS])
-    diag = Diagnoser(vessel, PARAMETERS, data, start, hs_rel_std=hs_rel_std, tp_std_s=0.0)
+    diag = Diagnoser(vessel, PARAMETERS, data, start, hs_rel_std=hs_rel_std, tp_std_s=tp_std_s,
+                     dir_std_deg=dir_std_deg)
     truth = np.array([TRUTH[p.name] for p in PARAMETERS])
     return diag.run(library(moonpool_position=MOONPOOL_AT), phi_before="refit"), truth

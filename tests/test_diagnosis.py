@@ -169,6 +169,14 @@ def test_clean_trials_name_no_effect(sample_model):
     assert [d.named for _, d, _ in results] == [None, None]
 
 
+def test_hindcast_errors_are_not_taken_for_an_effect(sample_model):
+    """Hs ±10 %, Tp ±0.5 s, direction ±5° (Han A5 Table 4.1) on clean windows: the sea-state search and the
+    likelihood's sea factors keep every candidate from 'explaining' the hindcast."""
+    named = [trials.trial(sample_model, None, s, hs_rel_std=0.1, tp_std_s=0.5, dir_std_deg=5.0)[0].named
+             for s in (0, 1)]
+    assert named == [None, None]
+
+
 @pytest.mark.slow
 def test_hidden_effect_trials_over_many_seeds(sample_model):
     """Issue 8's acceptance over 10 seeds per effect (random headings and sea states) and 10 clean trials."""

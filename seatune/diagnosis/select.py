@@ -70,7 +70,7 @@ class Fit:
 
 class Diagnoser:
     def __init__(self, vessel, parameters, data: WindowSet, phi_start: np.ndarray, hs_rel_std: float = 0.1,
-                 tp_std_s: float = 0.0):
+                 tp_std_s: float = 0.0, dir_std_deg: float = 0.0):
         self.vessel = vessel
         self.parameters = list(parameters)
         self.data = data
@@ -79,6 +79,7 @@ class Diagnoser:
         self.holdout = data.roles == "holdout"
         self.tau = max(2.0 * hs_rel_std, 1e-3)
         self.shape_var = (TP_FLANK_SLOPE * tp_std_s / data.tp) ** 2
+        self.tp_std_s, self.dir_std_deg = tp_std_s, dir_std_deg
         self.phi_start = np.asarray(phi_start, dtype=float)
         self._mean = np.array([p.prior_mean for p in self.parameters])
         self._std = np.array([p.prior_std for p in self.parameters])
@@ -167,6 +168,27 @@ class Diagnoser:
             out[q.name] = float(np.sqrt(max(cov[p + k, p + k], 0.0)) * (q.upper - q.lower))
         return out
 
+    def sea_state_search(self, phi) -> np.ndarray:
+        """Each window's wave spectrum with the hindcast's Tp and direction errors corrected to their MAP under the
+        model without effect: a 5 × 5 grid of ±2σ in Tp and direction (Gaussian prior, A5 Table 4.1 errors)."""
+        d = self.data
+        steps = np.linspace(-2.0, 2.0, 5)
+        parts = self.model.parts(phi)
+        h = parts.solve()
+        power = h.real**2 + h.imag**2  # (nm, nb, nc)
+        best = np.full(len(d.window_ids), np.inf)
+        out = d.wave.copy()
+        for a in steps:
+            for b in steps:
+                wave = shifted_wave(d.wave, d.omega_fine, d.tp, a * self.tp_std_s, b * self.dir_std_deg)
+                pred = np.einsum("fbc,wfb->wcf", power, wave)[..., d.kernel_index] @ d.kernel
+                r, _ = res.log_ratio(d.measured, pred, d.dof)
+                value = window_nll(r, d.mask, d.dof, self.tau, self.shape_var)[0] + 0.5 * (a * a + b * b)
+                better = value < best
+                best = np.where(better, value, best)
+                out[better] = wave[better]
+        return out
+
     # --- the whole selection --------------------------------------------------------------------------------
     def residuals(self, phi, effect=None, params=None):
         """(r, sd, û) of every window under a model; r already divided by the window's scale e^û."""
@@ -186,6 +208,10 @@ class Diagnoser:
         """`phi_before`: the tuned loading the gap is measured from (default the start); "refit": the loading
         refitted here without any effect (what a tuning on these windows gives)."""
         base = self.fit(None)
+        if self.tp_std_s > 0 or self.dir_std_deg > 0:  # the windows' sea states as the data see them, then refit
+            self.data.wave = self.sea_state_search(base.phi)
+            self._base = None
+            base = self.fit(None)
         if isinstance(phi_before, str):
             phi_before = base.phi
         phi_before = self.phi_start if phi_before is None else np.asarray(phi_before, dtype=float)
@@ -246,6 +272,23 @@ class Diagnoser:
             ok = (meas > 0) & (model > 0)
             out[f"sigma_error_{role}"] = float(np.mean(np.abs(np.log(model[ok] / meas[ok])))) if ok.any() else np.nan
         return out
+
+
+def shifted_wave(wave: np.ndarray, omega: np.ndarray, tp: np.ndarray, d_tp: float, d_dir_deg: float) -> np.ndarray:
+    """S(ω, β)·Δβ per window (nw, nm, nb) with Tp moved by d_tp (self-similar: S' = r S(ω r), r = Tp'/Tp) and
+    the directions turned by d_dir_deg (linear between the equally spaced direction bins)."""
+    out = wave
+    if d_tp:
+        r = (tp + d_tp) / tp
+        out = np.stack([r[w] * np.stack([np.interp(omega * r[w], omega, wave[w, :, k], left=0, right=0)
+                                          for k in range(wave.shape[2])], axis=1) for w in range(wave.shape[0])])
+    if d_dir_deg:
+        step = 360.0 / wave.shape[2]
+        shift = d_dir_deg / step
+        k = int(np.floor(shift))
+        f = shift - k
+        out = (1 - f) * np.roll(out, k, axis=2) + f * np.roll(out, k + 1, axis=2)
+    return out
 
 
 def _at_bound(effect, params: dict) -> list[str]:

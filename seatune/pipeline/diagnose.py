@@ -203,7 +203,8 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     data = window_set(run, vessel, channels)
     diag = Diagnoser(vessel, parameters, data, tuned_phi(run, parameters),
                      hs_rel_std=run.spec.hindcast.uncertainty.hs_rel_std,
-                     tp_std_s=run.spec.hindcast.uncertainty.tp_std_s).run(effects)
+                     tp_std_s=run.spec.hindcast.uncertainty.tp_std_s,
+                     dir_std_deg=run.spec.hindcast.uncertainty.dir_std_deg).run(effects)
     train = data.roles == "train"
     by_name = {e.name: e for e in effects}
     left = {}
