@@ -253,11 +253,12 @@ class Diagnoser:
                 best = (score, f)
         winner = best[1] if best else None
         after = winner or base
-        r1, sd1, pred1 = cache[after.effect]
-        left = res.bands(train_data, r1[self.train], sd1[self.train], self.modes(after.phi))
+        r1, sd1, _ = cache[after.effect]
+        left = {f.effect: res.bands(train_data, cache[f.effect][0][self.train], cache[f.effect][1][self.train],
+                                    self.modes(f.phi)) for f in fits}  # the misfit each candidate leaves
         return Diagnosis(rows=rows, winner=winner, base=base, phi_before=phi_before, bands_before=found,
                          bands_after=left, residual_before=(r0, sd0), residual_after=(r1, sd1), gaps=gaps,
-                         parameter_names=tuple(p.name for p in self.parameters), diagnoser=self)
+                         parameter_names=tuple(p.name for p in self.parameters))
 
     def _gaps(self, r, sd, pred, select) -> dict:
         out = {}
@@ -322,12 +323,11 @@ class Diagnosis:
     base: Fit
     phi_before: np.ndarray
     bands_before: list
-    bands_after: list
+    bands_after: dict  # per candidate: the bands left on the training windows with it
     residual_before: tuple
     residual_after: tuple
     gaps: dict  # per candidate: gap_/sigma_error_ {train, holdout} _ {before, after}, in the bins it affects
     parameter_names: tuple = ()
-    diagnoser: object = None
 
     @property
     def named(self) -> str | None:

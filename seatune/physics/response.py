@@ -63,12 +63,10 @@ def _motion_raos(db: HydroDatabase, lh: LoadedHydro) -> np.ndarray:
     return np.swapaxes(np.linalg.solve(H, np.swapaxes(F, -1, -2)), -1, -2)
 
 
-def motion_raos_at(db: HydroDatabase, loading: Loading, omega: np.ndarray) -> np.ndarray:
-    """ξ(ω, β) of one loading condition at arbitrary frequencies: (len(omega), nb, 6).
-
-    A, B are interpolated linearly in ω and F by power and phase (physics/interp.py); the equation of
-    motion is then solved at each frequency, so resonance peaks between grid points are resolved.
-    """
+def hull_system(db: HydroDatabase, loading: Loading, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """H(ω) = −ω²(M + A) − iω(B + B_v) + C (len(omega), 6, 6) and F(ω, β) (len(omega), nb, 6) of one loading
+    condition at arbitrary frequencies: A, B interpolated linearly in ω and F by power and phase
+    (physics/interp.py), at the condition's draft."""
     from seatune.physics.interp import interp_axis0
 
     lh = load(db, loading.take(slice(0, 1)))
@@ -78,6 +76,16 @@ def motion_raos_at(db: HydroDatabase, loading: Loading, omega: np.ndarray) -> np
     F = interp_axis0(db.omega, (1 - w) * db.excitation_force[i0] + w * db.excitation_force[i1], omega)
     om = omega[:, None, None]
     H = -(om**2) * (lh.mass_matrix[0] + A) - 1j * om * (B + lh.extra_damping[0]) + lh.stiffness[0]
+    return H, F
+
+
+def motion_raos_at(db: HydroDatabase, loading: Loading, omega: np.ndarray) -> np.ndarray:
+    """ξ(ω, β) of one loading condition at arbitrary frequencies: (len(omega), nb, 6).
+
+    The equation of motion is solved at each frequency (`hull_system`), so resonance peaks between grid
+    points are resolved.
+    """
+    H, F = hull_system(db, loading, omega)
     return np.swapaxes(np.linalg.solve(H, np.swapaxes(F, -1, -2)), -1, -2)
 
 

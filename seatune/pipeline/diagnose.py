@@ -111,7 +111,7 @@ def _mean_beta(wave: np.ndarray, grid: np.ndarray) -> float:
     return float(np.degrees(np.arctan2((e * np.sin(grid)).sum(), (e * np.cos(grid)).sum())) % 360.0)
 
 
-def diagnosis_table(diag, effects, bands_after: dict) -> pd.DataFrame:
+def diagnosis_table(diag, effects) -> pd.DataFrame:
     from seatune.diagnosis.residuals import describe
 
     by_name = {e.name: e for e in effects}
@@ -133,7 +133,8 @@ def diagnosis_table(diag, effects, bands_after: dict) -> pd.DataFrame:
             "selected": diag.winner is not None and f is diag.winner,
             **{f"{k}_{when}_{role}": g[f"{k}_{role}_{when}"] for k in ("gap", "sigma_error")
                for when in ("before", "after") for role in ("train", "holdout")},
-            "bands_before": before, "bands_after": bands_after.get(f.effect, "")})
+            "bands_before": before,
+            "bands_after": "; ".join(describe(b) for b in diag.bands_after[f.effect]) or "none left"})
     return pd.DataFrame(out, columns=list(DIAGNOSIS_UNITS))
 
 
@@ -172,7 +173,7 @@ def augmented_vessel_yaml(vessel, diag, effect, path: Path) -> None:
 
 def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     from seatune.diagnosis.effects import library
-    from seatune.diagnosis.residuals import bands, describe
+    from seatune.diagnosis.residuals import describe
     from seatune.diagnosis.select import Diagnoser
     from seatune.io.parquet import write_table
     from seatune.io.rundir import fingerprint, is_fresh
@@ -207,13 +208,7 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
                      dir_std_deg=run.spec.hindcast.uncertainty.dir_std_deg).run(effects)
     train = data.roles == "train"
     by_name = {e.name: e for e in effects}
-    left = {}
-    for r in diag.rows:  # misfit each candidate leaves on the training windows
-        f = r["fit"]
-        rf, sdf, _ = diag.diagnoser.residuals(f.phi, by_name.get(f.effect), f.params)
-        found = bands(data.subset(train), rf[train], sdf[train], diag.diagnoser.modes(f.phi))
-        left[f.effect] = "; ".join(describe(b) for b in found) or "none left"
-    table = diagnosis_table(diag, effects, left)
+    table = diagnosis_table(diag, effects)
     meta = {"fingerprint": fp}
     if diag.winner is not None:
         augmented_vessel_yaml(vessel, diag, by_name[diag.winner.effect], augmented)

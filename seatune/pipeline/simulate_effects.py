@@ -21,8 +21,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from seatune.physics.channels import point_translation
-from seatune.physics.interp import interp_axis0
 from seatune.physics.loading import load
+from seatune.physics.response import hull_system
 
 
 @dataclass
@@ -61,21 +61,6 @@ class ExtraDof:
     row: np.ndarray  # (n, 6)
     diag: np.ndarray  # (n,)
     force: np.ndarray  # (n, nb)
-
-
-def hull_system(db, loading, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """H6(ω) = −ω²(M + A) − iω(B + B_v) + C and F6(ω, β) at arbitrary ω, as `motion_raos_at` builds them.
-
-    Returns H (n, 6, 6) and F (n, nb, 6) per unit wave amplitude at the loading's draft.
-    """
-    lh = load(db, loading.take(slice(0, 1)))
-    i0, i1, w = (a[0] for a in lh.draft_index)
-    A = interp_axis0(db.omega, (1 - w) * db.added_mass[i0] + w * db.added_mass[i1], omega)
-    B = interp_axis0(db.omega, (1 - w) * db.radiation_damping[i0] + w * db.radiation_damping[i1], omega)
-    F = interp_axis0(db.omega, (1 - w) * db.excitation_force[i0] + w * db.excitation_force[i1], omega)
-    om = omega[:, None, None]
-    H = -(om**2) * (lh.mass_matrix[0] + A) - 1j * om * (B + lh.extra_damping[0]) + lh.stiffness[0]
-    return H, F
 
 
 def augmented_solve(H: np.ndarray, F: np.ndarray, dofs: list[ExtraDof]) -> tuple[np.ndarray, np.ndarray]:
