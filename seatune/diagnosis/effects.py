@@ -244,15 +244,11 @@ class WaveSpreading(Effect):
 
 def _direction_weights(beta_deg: np.ndarray, grid_deg: np.ndarray) -> np.ndarray:
     """Split a direction between its two neighbours on the equally spaced grid: (n, nb), rows sum to 1."""
-    step = 360.0 / grid_deg.size
-    pos = np.mod(beta_deg - grid_deg[0], 360.0) / step
-    i = np.floor(pos).astype(int) % grid_deg.size
-    f = pos - np.floor(pos)
-    out = np.zeros((beta_deg.size, grid_deg.size))
-    rows = np.arange(beta_deg.size)
-    out[rows, i] += 1 - f
-    out[rows, (i + 1) % grid_deg.size] += f
-    return out
+    from seatune.physics.spectra import _long_crested_weights
+
+    grid = np.radians(grid_deg)
+    step = 2 * np.pi / grid.size
+    return _long_crested_weights(grid, np.argsort(grid), step, np.radians(np.asarray(beta_deg, float)), True) * step
 
 
 def library(names=None, moonpool_position=(0.0, 0.0), imu_sensor: str = "imu") -> list[Effect]:

@@ -58,11 +58,6 @@ class ModelParts:
     wave: np.ndarray  # (nw, nf, nb) S(ω, β)·Δβ
     beta: np.ndarray  # (nb,) rad, database directions
     draft: float
-    mass_matrix: np.ndarray  # (6, 6)
-    stiffness: np.ndarray  # (6, 6)
-    extra_damping: np.ndarray  # (6, 6)
-    added_mass: np.ndarray  # (nf, 6, 6)
-    damping: np.ndarray  # (nf, 6, 6) radiation
     omega_roll: float  # undamped roll natural frequency [rad/s]
     inertia_roll: float  # I44 + A44(ω_roll) about the origin [kg·m²]
     g: float
@@ -127,9 +122,8 @@ class SpectralModel:
         a44 = float(np.interp(w_roll, db.omega, (1 - w) * db.added_mass[i0, :, 3, 3] + w * db.added_mass[i1, :, 3, 3]))
         wave = self.data.wave.copy() if self.data is not None else np.zeros((0, om.shape[0], db.wave_direction.size))
         parts = ModelParts(omega=self.omega, impedance=H, force=F, transfer=t, wave=wave,
-                           beta=db.wave_direction, draft=float(lh.draft[0]), mass_matrix=M, stiffness=C,
-                           extra_damping=Bv, added_mass=A, damping=B, omega_roll=w_roll, inertia_roll=M[3, 3] + a44,
-                           g=db.g, rho=db.rho)
+                           beta=db.wave_direction, draft=float(lh.draft[0]), omega_roll=w_roll,
+                           inertia_roll=M[3, 3] + a44, g=db.g, rho=db.rho)
         for effect, params in self.known:
             effect.apply(parts, params, self)
         return parts

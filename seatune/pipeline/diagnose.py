@@ -55,7 +55,7 @@ def window_set(run, vessel, channels):
     """The WindowSet of the run's accepted windows with the tune stage's roles."""
     from seatune.diagnosis.model import WindowSet, analysis_mask, welch_grid
     from seatune.io.hindcast_readers import read_hindcast
-    from seatune.pipeline.identify import window_wave_spectrum
+    from seatune.pipeline.identify import mean_wave_direction, window_wave_spectrum
 
     windows = pd.read_parquet(run.artefact("windows.parquet"))
     stats = pd.read_parquet(run.artefact("window_stats.parquet"))
@@ -77,7 +77,7 @@ def window_set(run, vessel, channels):
         raise UserError(str(run.path), "diagnose", f"fewer than 4 Welch bins in {lo:.2f}–{hi:.2f} rad/s")
     fine, index, kernel = welch_grid(bins, segment)
     k = run.spec.tuning.holdout_every
-    ids, roles, measured, dof, cutoff, waves, rows = [], [], [], [], [], [], []
+    ids, roles, measured, dof, cutoff, waves, betas, rows = [], [], [], [], [], [], [], []
     for i, row in enumerate(acc.itertuples()):
         sp = spectra[spectra["window_id"] == row.window_id]
         st = stats[stats["window_id"] == row.window_id].set_index("channel")
@@ -95,6 +95,7 @@ def window_set(run, vessel, channels):
         dof.append(nu)
         cutoff.append([2 * np.pi * float(st.loc[c, "cutoff_hz"]) for c in channels])
         waves.append(body_wave(S2d, dirs, row.heading_deg, db.wave_direction))
+        betas.append(mean_wave_direction(S2d, dirs, row.heading_deg))
         rows.append(row)
     if "train" not in roles:
         roles[0] = "train"
@@ -102,13 +103,8 @@ def window_set(run, vessel, channels):
     mask = analysis_mask(measured, bins, lo, np.minimum(np.array(cutoff), hi), rel=settings.relative_floor)
     return WindowSet(ids, np.array(roles), bins, fine, index, kernel, list(channels), measured, np.array(dof), mask,
                      np.array(waves), np.array([r.hs for r in rows]), np.array([r.tp for r in rows]),
-                     np.array([_mean_beta(w, db.wave_direction) for w in waves]),
+                     np.array(betas),
                      np.array([r.heading_deg for r in rows]), np.array([r.sog for r in rows]))
-
-
-def _mean_beta(wave: np.ndarray, grid: np.ndarray) -> float:
-    e = wave.sum(axis=0)
-    return float(np.degrees(np.arctan2((e * np.sin(grid)).sum(), (e * np.cos(grid)).sum())) % 360.0)
 
 
 def diagnosis_table(diag, effects) -> pd.DataFrame:
