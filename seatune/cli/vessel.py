@@ -70,10 +70,13 @@ def info(vessel_yaml, overrides, as_json):
         ("KB / KG", f"{summary['kb_m']:.2f} m / {summary['kg_m']:.2f} m"),
         ("GMT (free-surface corrected)", f"{summary['gmt_m']:.3f} m (correction {summary['gmt_fs_m']:.2f} m)"),
         ("GML", f"{summary['gml_m']:.1f} m"),
-        ("natural period heave", f"{summary['natural_period_heave_s']:.2f} s"),
-        ("natural period roll", f"{summary['natural_period_roll_s']:.2f} s"
-         + (f"  (IMO A.749 estimate {summary['roll_period_imo_s']:.2f} s)" if "roll_period_imo_s" in summary else "")),
-        ("natural period pitch", f"{summary['natural_period_pitch_s']:.2f} s"),
+        ("natural period heave (coupled)", f"{summary['natural_period_heave_s']:.2f} s"),
+        ("natural period roll (coupled)", f"{summary['natural_period_roll_s']:.2f} s"
+         + f"  (uncoupled {summary['natural_period_roll_uncoupled_s']:.2f} s"
+         + (f", IMO A.749 estimate {summary['roll_period_imo_s']:.2f} s)" if "roll_period_imo_s" in summary else ")")),
+        ("roll centre", f"{summary['roll_centre_above_keel_m']:.2f} m above the keel"),
+        ("natural period pitch (coupled)", f"{summary['natural_period_pitch_s']:.2f} s"
+         + f"  (pitch centre {summary['pitch_centre_above_keel_m']:.2f} m above the keel)"),
         ("channels", f"{len(summary['channels'])}: " + ", ".join(summary["channels"])),
     ]
     for k, v in rows:

@@ -11,7 +11,9 @@ angle from +x in radians, DOF names "Surge".."Yaw". What this reader has to do:
   centre of mass, rotations about the rotation centre) into seatune's `buoyancy_stiffness` by removing
   the weight terms (:func:`weight_stiffness`), with mass = inertia_matrix[Surge, Surge] and the
   `center_of_mass` of the dataset;
-- insist that the rotation centre is the origin, on the waterline (seatune's body frame).
+- move added mass, damping, excitation and hydrostatics from the dataset's rotation centre to seatune's body
+  origin (0, 0, 0) on the calm waterline, so a hull exported about its keel, its centre of gravity or the
+  waterline gives the same database.
 
 A dataset already in seatune's layout (a `buoyancy_stiffness` variable and a `draft` dim) is loaded
 as it is.
@@ -26,6 +28,7 @@ import xarray as xr
 
 from seatune.errors import UserError
 from seatune.physics.hydro import DOFS, HydroDatabase
+from seatune.physics.loading import skew
 from seatune.physics.loading import weight_stiffness as physics_weight_stiffness
 
 _SCALAR_DIMS = ("g", "rho", "water_depth", "forward_speed", "body")
@@ -63,6 +66,45 @@ def read_capytaine_dataset(path_or_dataset, *, draft: float | None = None) -> Hy
     if "buoyancy_stiffness" in ds:
         return _from_seatune_layout(ds, source, draft)
     return _from_capytaine_layout(ds, source, draft)
+
+
+def read_capytaine_files(paths) -> HydroDatabase:
+    """One multi-draft hydro database from Capytaine datasets written one per draft (the mesh changes with the
+    draft). Each file's draft is its `draught`; ω, wave directions, ρ, g and depth must agree across files."""
+    paths = [Path(p) for p in paths]
+    if not paths:
+        raise UserError("hull.capytaine.files", None, "no file matches")
+    dbs = [read_capytaine_dataset(p) for p in paths]
+    first = dbs[0]
+    for p, db in zip(paths[1:], dbs[1:], strict=True):
+        for name in ("omega", "wave_direction"):
+            a, b = getattr(first, name), getattr(db, name)
+            if a.shape != b.shape or not np.allclose(a, b, rtol=1e-9, atol=1e-12):
+                raise UserError(str(p), name, f"differs from {paths[0].name} ({b.size} values {b.min():.4g}–"
+                                              f"{b.max():.4g} against {a.size} values {a.min():.4g}–{a.max():.4g})")
+        for name in ("rho", "g", "water_depth"):
+            if getattr(db, name) != getattr(first, name):
+                raise UserError(str(p), name, f"is {getattr(db, name)}, {paths[0].name} has {getattr(first, name)}")
+    drafts = np.array([float(db.drafts[0]) for db in dbs])
+    order = np.argsort(drafts)
+    if np.any(np.diff(drafts[order]) <= 0):
+        k = int(order[np.argmin(np.diff(drafts[order])) + 1])
+        raise UserError(str(paths[k]), "draught", f"{drafts[k]:g} m appears in two files")
+    dbs = [dbs[k] for k in order]
+
+    def stack(name):
+        return np.concatenate([getattr(db, name) for db in dbs])
+
+    attrs = dict(first.attrs or {})
+    attrs.pop("source_file", None)
+    attrs["source_files"] = ", ".join(str(paths[k]) for k in order)
+    return HydroDatabase(
+        drafts=drafts[order], omega=first.omega, wave_direction=first.wave_direction,
+        added_mass=stack("added_mass"), radiation_damping=stack("radiation_damping"),
+        added_mass_inf=stack("added_mass_inf"), excitation_force=stack("excitation_force"),
+        buoyancy_stiffness=stack("buoyancy_stiffness"), disp_volume=stack("disp_volume"),
+        center_of_buoyancy=stack("center_of_buoyancy"), rho=first.rho, g=first.g, water_depth=first.water_depth,
+        attrs=attrs)
 
 
 # ----------------------------------------------------------------------------------------------------------------------
@@ -108,7 +150,7 @@ def _from_capytaine_layout(ds: xr.Dataset, source: str, draft: float | None) -> 
         raise UserError(source, "forward_speed", f"is {float(ds['forward_speed'])} m/s; only zero speed is supported")
     ds = _to_omega(ds, source)
     _check_dofs(ds, source)
-    _check_rotation_center(ds, source, attrs)
+    rc = _rotation_center(ds, attrs)
     dofs = list(DOFS)
 
     for name in ("added_mass", "radiation_damping", "hydrostatic_stiffness", "inertia_matrix"):
@@ -158,9 +200,6 @@ def _from_capytaine_layout(ds: xr.Dataset, source: str, draft: float | None) -> 
     cog = _vector(ds, "center_of_mass", source,
                   "missing: the mass and centre of mass at which hydrostatic_stiffness was computed are needed "
                   "to separate the weight terms")
-    buoyancy = stiffness - weight_stiffness(mass, cog, g)
-    attrs.update(weight_terms_mass=mass, weight_terms_center_of_mass=np.asarray(cog, dtype=float))
-
     if "disp_volume" in ds:
         volume = float(ds["disp_volume"])
     elif "disp_mass" in ds:
@@ -168,6 +207,14 @@ def _from_capytaine_layout(ds: xr.Dataset, source: str, draft: float | None) -> 
     else:
         volume = mass / rho
         attrs["disp_volume"] = "mass / rho (free floating)"
+    # one reference for everything: the waterline origin (DESIGN §3), whatever the rotation centre was
+    t = motion_transfer(rc)
+    added_mass, damping = t.T @ added_mass @ t, t.T @ damping @ t
+    added_mass_inf = t.T @ added_mass_inf @ t
+    excitation = excitation @ t
+    buoyancy = buoyancy_stiffness_to_origin(stiffness - weight_stiffness(mass, np.asarray(cog) - rc, g), rc, volume,
+                                            rho, g)
+    attrs.update(weight_terms_mass=mass, weight_terms_center_of_mass=np.asarray(cog, dtype=float))
     if "center_of_buoyancy" in ds:
         cob = _vector(ds, "center_of_buoyancy", source, "")
     else:
@@ -232,16 +279,41 @@ def _check_dofs(ds: xr.Dataset, source: str) -> None:
                                          f"{', '.join(DOFS)} of a single body")
 
 
-def _check_rotation_center(ds: xr.Dataset, source: str, attrs: dict) -> None:
+def _rotation_center(ds: xr.Dataset, attrs: dict) -> np.ndarray:
     if "rotation_center" not in ds:
         attrs["rotation_center"] = "not recorded in the dataset; assumed (0, 0, 0)"
-        return
+        return np.zeros(3)
     rc = np.atleast_1d(ds["rotation_center"].values).astype(float)
-    if rc.shape != (3,) or not np.allclose(rc, 0.0, atol=1e-9):
-        raise UserError(source, "rotation_center",
-                        f"is {tuple(float(c) for c in rc)}; seatune's body frame has its origin on the waterline "
-                        "and the centreline and rotates about it: place the mesh with its waterline at z = 0 and "
-                        "its centreline at y = 0 and use cpt.rigid_body_dofs(rotation_center=(0, 0, 0))")
+    attrs["rotation_center"] = rc
+    return rc
+
+
+def motion_transfer(r: np.ndarray) -> np.ndarray:
+    """T with ξ_P = T ξ_O for rigid-body motions about O and about P = O + r: u_P = u_O + θ × r."""
+    t = np.eye(6)
+    t[:3, 3:] = -skew(np.asarray(r, dtype=float)[None])[0]
+    return t
+
+
+def buoyancy_stiffness_to_origin(c: np.ndarray, rc: np.ndarray, volume: float, rho: float, g: float) -> np.ndarray:
+    """Buoyancy-only hydrostatic stiffness about the rotation centre rc (Capytaine's) → about the waterline
+    origin (0, 0, 0). With S = ∫ over the waterplane and z_b the centre of buoyancy, about a point c:
+    C33 = ρgA, C34 = ρg∫(y−y_c), C35 = −ρg∫(x−x_c), C44 = ρg∫(y−y_c)² + ρgV(z_b−z_c), C55 likewise in x,
+    C45 = −ρg∫(x−x_c)(y−y_c), C46 = −ρgV(x_b−x_c), C56 = −ρgV(y_b−y_c); the waterplane integrals about rc give
+    those about the origin by the parallel-axis theorem."""
+    xc, yc, zc = (float(v) for v in rc)
+    out = np.array(c, dtype=float)
+    rg, rgv = rho * g, rho * g * volume
+    area = c[2, 2] / rg
+    sy, sx = c[2, 3] / rg, -c[2, 4] / rg  # ∫(y − y_c) dS, ∫(x − x_c) dS
+    out[2, 3] = out[3, 2] = rg * (sy + yc * area)
+    out[2, 4] = out[4, 2] = -rg * (sx + xc * area)
+    out[3, 3] = c[3, 3] + rg * (2 * yc * sy + yc**2 * area) + rgv * zc
+    out[4, 4] = c[4, 4] + rg * (2 * xc * sx + xc**2 * area) + rgv * zc
+    out[3, 4] = out[4, 3] = c[3, 4] - rg * (yc * sx + xc * sy + xc * yc * area)
+    out[3, 5] = c[3, 5] - rgv * xc
+    out[4, 5] = c[4, 5] - rgv * yc
+    return out
 
 
 def _excitation(ds: xr.Dataset, source: str) -> xr.DataArray:

@@ -175,33 +175,8 @@ def channel_statistics(db: HydroDatabase, loading: Loading, channels: list[Chann
     return spectral_statistics(db.omega, channel_spectra(db, loading, channels, wave_spectrum))
 
 
-def natural_frequencies(db: HydroDatabase, loading: Loading, dofs=(2, 3, 4), iterations: int = 100) -> np.ndarray:
-    """Uncoupled ω_n = √(C_dd / (M_dd + A_dd(ω_n))) by fixed-point iteration: (N, len(dofs)) rad/s.
+def natural_frequencies(db: HydroDatabase, loading: Loading, dofs=(2, 3, 4)) -> np.ndarray:
+    """Coupled ω_n [rad/s], roots of det(C − ω²(M + A(ω))) = 0 (`physics.modes`): (N, len(dofs))."""
+    from seatune.physics.modes import natural_frequencies as coupled
 
-    A_dd(ω) is interpolated linearly in ω on the database grid, and taken as A(∞) beyond it.
-    """
-    lh = load(db, loading)
-    i0, i1, w = lh.draft_index
-    out = np.empty((len(loading), len(dofs)))
-    for k, d in enumerate(dofs):
-        a = (1 - w[:, None]) * db.added_mass[i0, :, d, d] + w[:, None] * db.added_mass[i1, :, d, d]
-        a_inf = (1 - w) * db.added_mass_inf[i0, d, d] + w * db.added_mass_inf[i1, d, d]
-        m, c = lh.mass_matrix[:, d, d], lh.stiffness[:, d, d]
-        om = np.sqrt(c / (m + a_inf))
-        for _ in range(iterations):
-            new = np.sqrt(c / (m + _interp_rows(om, db.omega, a, a_inf)))
-            converged = np.allclose(new, om, rtol=1e-12, atol=0)
-            om = new
-            if converged:
-                break
-        out[:, k] = om
-    return out
-
-
-def _interp_rows(x: np.ndarray, grid: np.ndarray, rows: np.ndarray, right: np.ndarray) -> np.ndarray:
-    """Row-wise np.interp: rows[n] sampled on `grid`, evaluated at x[n]; `right[n]` beyond the grid."""
-    j = np.clip(np.searchsorted(grid, x) - 1, 0, grid.shape[0] - 2)
-    f = np.clip((x - grid[j]) / (grid[j + 1] - grid[j]), 0.0, 1.0)
-    n = np.arange(x.shape[0])
-    val = (1 - f) * rows[n, j] + f * rows[n, j + 1]
-    return np.where(x > grid[-1], right, val)
+    return coupled(db, loading, dofs)

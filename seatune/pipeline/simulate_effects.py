@@ -116,13 +116,13 @@ def moonpool_dof(omega: np.ndarray, beta: np.ndarray, draft: float, rho: float, 
 
 def roll_inertia(db, loading) -> tuple[float, float]:
     """(I44 + A44(ω_n), ω_n): rigid-body roll inertia about the body origin plus the database added mass at the
-    uncoupled roll natural frequency, at the loading's draft."""
-    from seatune.physics.response import natural_frequencies
+    coupled roll natural frequency (`physics.modes`), at the loading's draft."""
+    from seatune.physics.modes import coupled_modes
 
     one = loading.take(slice(0, 1))
     lh = load(db, one)
     i0, i1, w = (a[0] for a in lh.draft_index)
-    wn = float(natural_frequencies(db, one, dofs=(3,))[0, 0])
+    wn = float(coupled_modes(db, one).omega[0, 1])
     a44 = (1 - w) * db.added_mass[i0, :, 3, 3] + w * db.added_mass[i1, :, 3, 3]
     return float(lh.mass_matrix[0, 3, 3] + np.interp(wn, db.omega, a44)), wn
 
@@ -151,31 +151,40 @@ def anti_roll_tank_dof(omega: np.ndarray, nb: int, inertia: float, omega_t: floa
 
 @dataclass(frozen=True)
 class RollConstants:
-    inertia: float  # I44 + A44(ω_n) [kg m²]
+    inertia: float  # modal inertia of the coupled roll mode (roll about its roll centre) [kg m²]
     damping: float  # B44(ω_n) + B_v44 [N m s]
-    stiffness: float  # C44 [N m]
-    omega_n: float  # rad/s
+    stiffness: float  # inertia ω_n², so that the SDOF resonates at the coupled root [N m]
+    omega_n: float  # rad/s, coupled
+    moment_inertia: float | None = None  # I44 + A44(ω_n) about the origin, the scale of −q I₀ |φ̇| φ̇ (None: inertia)
 
 
 def roll_constants(db, loading) -> RollConstants:
-    """Linear roll coefficients of the loading at its roll natural frequency (database at its draft)."""
-    lh = load(db, loading.take(slice(0, 1)))
+    """Linear roll coefficients of the loading's coupled roll mode (database at its draft)."""
+    from seatune.physics.modes import coupled_modes
+
+    one = loading.take(slice(0, 1))
+    lh = load(db, one)
     i0, i1, w = (a[0] for a in lh.draft_index)
-    inertia, wn = roll_inertia(db, loading)
+    moment_inertia, wn = roll_inertia(db, one)
+    modal = float(coupled_modes(db, one).effective_inertia[0, 1])
     b44 = (1 - w) * db.radiation_damping[i0, :, 3, 3] + w * db.radiation_damping[i1, :, 3, 3]
-    return RollConstants(inertia=inertia, damping=float(np.interp(wn, db.omega, b44) + lh.extra_damping[0, 3, 3]),
-                         stiffness=float(lh.stiffness[0, 3, 3]), omega_n=wn)
+    return RollConstants(inertia=modal, damping=float(np.interp(wn, db.omega, b44) + lh.extra_damping[0, 3, 3]),
+                         stiffness=modal * wn**2, omega_n=wn, moment_inertia=moment_inertia)
 
 
 def quadratic_roll_correction(phi_dot_lin: np.ndarray, dt: float, rc: RollConstants,
                               q: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Roll correction δφ, δφ̇, δφ̈ (each (T,)) for the quadratic roll moment M_q = −q I |φ̇| φ̇:
 
-        I δφ̈ + B δφ̇ + C δφ = −q I |φ̇_lin + δφ̇| (φ̇_lin + δφ̇),   I = I44 + A44(ω_n), B = B44(ω_n) + B_v44,
+        I δφ̈ + B δφ̇ + I ω_n² δφ = −q I₀ |φ̇_lin + δφ̇| (φ̇_lin + δφ̇),   B = B44(ω_n) + B_v44,
+
+    I the modal inertia of the coupled roll mode, ω_n its root, I₀ = I44 + A44(ω_n) about the origin,
 
     so that φ = φ_lin + δφ satisfies the linear roll equation plus M_q. Fixed-step RK4 at the sample step,
     φ̇_lin linearly interpolated at the half steps; δφ(0) = δφ̇(0) = 0.
     """
+    if rc.moment_inertia is not None:
+        q = q * rc.moment_inertia / rc.inertia  # the moment's scale over the mode's own inertia
     u = np.asarray(phi_dot_lin, dtype=float)
     n = u.shape[0]
     y = np.zeros(n)

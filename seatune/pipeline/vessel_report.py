@@ -7,7 +7,8 @@ import pandas as pd
 
 from seatune.physics.hydro import DOFS
 from seatune.physics.loading import Loading, load
-from seatune.physics.response import channel_raos, motion_raos, natural_frequencies
+from seatune.physics.modes import coupled_modes
+from seatune.physics.response import channel_raos, motion_raos
 from seatune.pipeline.vessel import VesselModel
 
 RAO_UNITS = {"Surge": "m/m", "Sway": "m/m", "Heave": "m/m", "Roll": "rad/m", "Pitch": "rad/m", "Yaw": "rad/m"}
@@ -26,7 +27,8 @@ def vessel_summary(model: VesselModel, loading: Loading | None = None) -> dict:
     db = model.db
     lh = load(db, loading)
     mg = loading.mass[0] * db.g
-    wn = natural_frequencies(db, loading)[0]
+    modes = coupled_modes(db, loading)
+    wn = modes.omega[0]
     draft = float(lh.draft[0])
     i0, i1, w = lh.draft_index
     kb = draft + float((1 - w[0]) * db.center_of_buoyancy[i0[0], 2] + w[0] * db.center_of_buoyancy[i1[0], 2])
@@ -50,6 +52,10 @@ def vessel_summary(model: VesselModel, loading: Loading | None = None) -> dict:
         "natural_period_heave_s": float(2 * np.pi / wn[0]),
         "natural_period_roll_s": float(2 * np.pi / wn[1]),
         "natural_period_pitch_s": float(2 * np.pi / wn[2]),
+        # coupled modes (roots of det(C − ω²(M + A(ω)))): roll about its roll centre, pitch about its pitch centre
+        "roll_centre_above_keel_m": float(modes.roll_centre_z[0] + draft),
+        "pitch_centre_above_keel_m": float(modes.pitch_centre_z[0] + draft),
+        "natural_period_roll_uncoupled_s": float(2 * np.pi / modes.uncoupled[0, 1]),
         "channels": [c.name for c in model.channels],
     }
     if model.length and model.beam and gmt > 0:
