@@ -64,8 +64,17 @@ class WamitHullSpec(_Strict):
 
 
 class CapytaineHullSpec(_Strict):
-    file: str  # netCDF written by Capytaine (one draft) or by `seatune vessel build` (several)
-    draft: PositiveFloat | None = None  # needed for a single-draft Capytaine file
+    file: str | None = None  # netCDF written by Capytaine (one draft) or by `seatune vessel build` (several)
+    draft: PositiveFloat | None = None  # needed for a single-draft Capytaine file without `draught`
+    files: list[str] | str | None = None  # one Capytaine file per draft (a list, or a glob), drafts from `draught`
+
+    @model_validator(mode="after")
+    def _one_form(self):
+        if (self.file is None) == (self.files is None):
+            raise ValueError("give either `file` (one dataset) or `files` (one dataset per draft)")
+        if self.files is not None and self.draft is not None:
+            raise ValueError("`draft` goes with `file`; with `files` each dataset's `draught` gives its draft")
+        return self
 
 
 class HullSpec(_Strict):

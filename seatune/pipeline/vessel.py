@@ -80,8 +80,10 @@ def load_database(spec: VesselSpec, base: Path, source: Path) -> HydroDatabase:
         except (OSError, KeyError, ValueError) as err:
             raise UserError(str(path), None, f"not a seatune hydro database ({err})") from None
     if h.capytaine is not None:
-        from seatune.io.capytaine_import import read_capytaine_dataset
+        from seatune.io.capytaine_import import read_capytaine_dataset, read_capytaine_files
 
+        if h.capytaine.files is not None:
+            return read_capytaine_files(capytaine_files(h.capytaine.files, base))
         return read_capytaine_dataset(base / h.capytaine.file, draft=h.capytaine.draft)
     if h.wamit is not None:
         from seatune.io.wamit import read_wamit
@@ -93,6 +95,20 @@ def load_database(spec: VesselSpec, base: Path, source: Path) -> HydroDatabase:
                           center_of_mass=(lo.xcg, lo.ycg, lo.zcg - h.wamit.draft), water_depth=spec.depth_m)
     where = f"hydro_database ({path})" if path is not None else "hydro_database"
     raise UserError(str(source), where, f"hydro database not built yet: run `seatune vessel build {source}`")
+
+
+def capytaine_files(files: list[str] | str, base: Path) -> list[Path]:
+    """`hull.capytaine.files`: a list of paths or one glob, relative to the vessel YAML."""
+    import glob
+
+    patterns = [files] if isinstance(files, str) else files
+    out = []
+    for pattern in patterns:
+        found = sorted(glob.glob(str(base / pattern)))
+        if not found:
+            raise UserError(str(base / pattern), "hull.capytaine.files", "no such file")
+        out += [Path(f) for f in found]
+    return out
 
 
 def open_vessel(path: str | Path) -> VesselModel:
