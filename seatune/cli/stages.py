@@ -33,7 +33,8 @@ def _line(stage: str, summary: dict, seconds: float) -> str:
     if stage == "filter":
         return (f"filter: {summary['windows']} windows × {summary['channels']} channels, median cutoff "
                 f"{summary['median_cutoff_hz']:.2f} Hz ({seconds:.0f} s)")
-    nat = ", ".join(f"{dof.lower()} {om:.3f} (prior {summary['prior_omega_n'][dof]:.3f})"
+    nat = ", ".join(f"{dof.lower()} {om:.3f} (prior {summary['prior_omega_n'][dof]:.3f})" if om == om
+                    else f"{dof.lower()} {summary.get('not_identified', {}).get(dof, 'not identified')}"
                     for dof, om in summary["omega_n"].items()) or "none identified"
     return (f"identify: RAOs of {summary['channels']} channels in {summary['windows']} windows "
             f"({summary['low_confidence']} low-confidence); natural frequencies [rad/s]: {nat} ({seconds:.0f} s)")

@@ -331,7 +331,9 @@ def key_figures(run_dir: Path) -> tuple[dict, dict]:
         n = pd.read_parquet(nat)
         n = n[(n["window_id"] == "all") & n["derived"].isna()]
         for dof, g in n.groupby("dof", sort=False):  # the first method listed per DOF (identify's primary)
-            row[f"omega_n_{dof.lower()}"], units[f"omega_n_{dof.lower()}"] = float(g["omega_n"].iloc[0]), "rad/s"
+            found = g["omega_n"].dropna()
+            row[f"omega_n_{dof.lower()}"] = float(found.iloc[0]) if len(found) else np.nan
+            units[f"omega_n_{dof.lower()}"] = "rad/s"
     return row, units
 
 

@@ -23,7 +23,7 @@ RAO_UNITS = {"scope": "", "window_id": "", "channel": "", "omega": "rad/s", "rao
              "low_confidence": "", "reason": "", "beta_deg": "deg", "sector_deg": "deg", "hs": "m",
              "hs_bin_m": "m", "n_windows": "", "wave_source": ""}
 NF_UNITS = {"dof": "", "method": "", "window_id": "", "omega_n": "rad/s", "ci_low": "rad/s", "ci_high": "rad/s",
-            "zeta": "", "model_prior": "rad/s", "derived": "", "derived_value": "", "derived_std": ""}
+            "zeta": "", "model_prior": "rad/s", "derived": "", "derived_value": "", "derived_std": "", "reason": ""}
 DOF_INDEX = {"Heave": 2, "Roll": 3, "Pitch": 4}
 
 
@@ -269,13 +269,18 @@ def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str,
     dof_row = {"Heave": 0, "Roll": 1, "Pitch": 2}
     for dof, prior in prior_omega.items():
         fits, peaks = [], []
+        skipped = {"no channel measures it": 0, "low-confidence window": 0,
+                   f"no wave energy at the prior ω_n {prior:.3f} rad/s": 0, "no resonance peak fitted": 0}
+        reasons = list(skipped)
         for w in per_window:
             if dof not in w["modes"] or w["low_confidence"]:
+                skipped[reasons[0 if dof not in w["modes"] else 1]] += 1
                 continue
             omega, S, nu = w["modes"][dof]
             s_wave = np.interp(omega, w["omega"], w["s_wave"], left=0, right=0)
             band = energetic_band(omega, s_wave, settings.band_fraction)
             if not band.any() or not (omega[band].min() <= prior <= omega[band].max()):
+                skipped[reasons[2]] += 1
                 continue  # the waves do not reach this resonance
             s_ff = excitation_spectra(model, w["draft"], omega, w["dirs"], _wave_on(w, omega), w["heading"])
             s_ff = s_ff[dof_row[dof]]
@@ -283,11 +288,13 @@ def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str,
             lo_s, hi_s = chi2_interval(S, nu, settings.confidence)
             with np.errstate(divide="ignore", invalid="ignore"):
                 amp, lo, hi = np.sqrt(S / s_ff), np.sqrt(lo_s / s_ff), np.sqrt(hi_s / s_ff)
-            if ok.sum() >= 5:
-                row = _fit_mode(omega[ok], amp[ok], lo[ok], hi[ok], s_wave[ok], prior, rng, w["tp_rel_std"])
-                if row is not None:
-                    fits.append({"dof": dof, "method": "admittance_peak_sdof", "window_id": w["window_id"],
-                                 **row, "model_prior": prior})
+            row = _fit_mode(omega[ok], amp[ok], lo[ok], hi[ok], s_wave[ok], prior, rng, w["tp_rel_std"]) \
+                if ok.sum() >= 5 else None
+            if row is None:
+                skipped[reasons[3]] += 1
+            else:
+                fits.append({"dof": dof, "method": "admittance_peak_sdof", "window_id": w["window_id"],
+                             **row, "model_prior": prior})
             if dof == "Roll":
                 pk = spectrum_peak(omega, S, (prior * (1 - rng), prior * (1 + rng)), "gaussian")
                 if pk.index >= 0:
@@ -298,6 +305,12 @@ def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str,
         for rows, method in ((fits, "admittance_peak_sdof"), (peaks, "response_spectrum_peak")):
             combined = _combine(rows, dof, method, prior)
             out += rows + ([combined] if combined else [])
+        if not fits:  # never a silent omission: the row says why
+            why = "; ".join(f"{k} ({n} of {len(per_window)} windows)" for k, n in skipped.items() if n) \
+                or "no accepted window"
+            out.append({"dof": dof, "method": "admittance_peak_sdof", "window_id": "all", "omega_n": np.nan,
+                        "ci_low": np.nan, "ci_high": np.nan, "zeta": np.nan, "model_prior": prior,
+                        "reason": f"not identified: {why}"})
     return out
 
 
@@ -340,23 +353,28 @@ def _wave_on(w: dict, omega: np.ndarray) -> np.ndarray:
 
 
 def derived_parameters(model, known_loading, nat: list[dict]) -> list[dict]:
-    """Loading parameters implied by the combined natural frequencies (de Jong ch. 6, with the corrected
-    roll formula of spec/seed_002.md): displacement from ω3; r44 from ω4 with the known GM; GM from ω4 with
-    the known r44. "Known" = the run's `identify.known` values over the vessel YAML's loading."""
+    """Loading parameters implied by the combined natural frequencies: displacement from ω3 (de Jong ch. 6);
+    r44 with the known GM, GM with the known r44 (both from the roll mode) and r55 from the pitch mode by
+    inverting the coupled model (`physics.modes.invert_mode`: the loading at which det(C − ω²(M + A(ω))) has
+    its root at the measured ω_n), with the interval of ω_n propagated through it. "Known" = the run's
+    `identify.known` values over the vessel YAML's loading."""
     from seatune.physics.loading import load
-    from seatune.physics.natural_frequency import displacement_from_heave_u, gm_from_roll_u, r44_from_roll_u
+    from seatune.physics.modes import invert_mode
+    from seatune.physics.natural_frequency import displacement_from_heave_u
 
     db = model.db
     lh = load(db, known_loading)
     mass = float(known_loading.mass[0])
-    gm = float(lh.stiffness[0, 3, 3] / (mass * db.g))
-    r44 = float(known_loading.r44[0])
+    gm_solid = float(lh.stiffness[0, 3, 3] / (mass * db.g)) + float(known_loading.gmt_fs[0])  # GM without fs
+    gm = gm_solid - float(known_loading.gmt_fs[0])
+    r44, r55 = float(known_loading.r44[0]), float(known_loading.r55[0])
 
     def added(dof: int, draft):
         a = db.interp("added_mass", np.atleast_1d(draft))[0, :, dof, dof]
         return lambda om: np.interp(om, db.omega, a)
 
-    best = {r["dof"]: r for r in nat if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof"}
+    best = {r["dof"]: r for r in nat if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof"
+            and np.isfinite(r["omega_n"])}
     out = []
     if "Heave" in best:
         r = best["Heave"]
@@ -367,17 +385,21 @@ def derived_parameters(model, known_loading, nat: list[dict]) -> list[dict]:
             d = displacement_from_heave_u(r["omega_n"], added(2, draft), awp, std_omega3=std, rho=db.rho, g=db.g)
             draft = db.draft_for_volume(np.clip(d.value / db.rho, db.disp_volume[0], db.disp_volume[-1]))
         out.append({**r, "derived": "displacement [t]", "derived_value": d.value / 1e3, "derived_std": d.std / 1e3})
+    inversions = []
     if "Roll" in best:
-        r = best["Roll"]
-        std = (r["ci_high"] - r["ci_low"]) / 3.92
-        a44 = added(3, lh.draft)
+        fs_bounds = (gm_solid - 4.0 * max(gm, 0.05), gm_solid - 0.01)  # GM from 0.01 m to 4× the known GM
+        inversions += [("Roll", "r44", (0.3 * r44, 3.0 * r44), f"r44 [m] (GM {gm:.3f} m)", lambda v: v),
+                       ("Roll", "gmt_fs", fs_bounds, f"GM [m] (r44 {r44:.2f} m)", lambda v: gm_solid - v)]
+    if "Pitch" in best:
+        inversions.append(("Pitch", "r55", (0.3 * r55, 3.0 * r55), "r55 [m]", lambda v: v))
+    for dof, parameter, bounds, label, to_value in inversions:
+        r = best[dof]
         try:
-            d = r44_from_roll_u(r["omega_n"], mass, gm, a44, std_omega4=std, g=db.g)
-            out.append({**r, "derived": f"r44 [m] (GM {gm:.3f} m)", "derived_value": d.value, "derived_std": d.std})
+            d = invert_mode(db, known_loading, parameter, dof, r["omega_n"], (r["ci_high"] - r["ci_low"]) / 3.92,
+                            bounds)
         except ValueError:
-            pass
-        d = gm_from_roll_u(r["omega_n"], mass, r44, a44, std_omega4=std, g=db.g)
-        out.append({**r, "derived": f"GM [m] (r44 {r44:.2f} m)", "derived_value": d.value, "derived_std": d.std})
+            continue  # the measured ω_n is out of the model's reach for this parameter
+        out.append({**r, "derived": label, "derived_value": to_value(d.value), "derived_std": d.std})
     return out
 
 
@@ -439,7 +461,9 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
     write_table(nat, out_n, NF_UNITS, {"fingerprint": fp})
     combined = nat[(nat["window_id"] == "all") & nat["derived"].isna() & (nat["method"] == "admittance_peak_sdof")]
     omega_n = dict(zip(combined["dof"], combined["omega_n"], strict=True))
+    not_identified = {r.dof: r.reason for r in combined.itertuples() if not np.isfinite(r.omega_n)}
     return {"skipped": False, "windows": int(windows["accepted"].sum()),
             "low_confidence": sum(w["low_confidence"] for w in per_window),
             "channels": int(raos["channel"].nunique()), "omega_n": omega_n, "prior_omega_n": prior_omega,
+            "not_identified": not_identified,
             "roll_omega_n": omega_n.get("Roll", float("nan")), "prior_roll_omega_n": prior_omega["Roll"]}

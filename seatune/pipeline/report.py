@@ -85,8 +85,8 @@ def report_stage(run, vessel, echo=print, force: bool = False) -> dict:
     from seatune.io.atomic import atomic_path
     from seatune.io.parquet import column_units, table_metadata, write_table
     from seatune.io.rundir import fingerprint, is_fresh, recorded_fingerprint
-    from seatune.physics.response import natural_frequencies
-    from seatune.report.build import build_report
+    from seatune.physics.modes import coupled_modes
+    from seatune.report.build import build_report, mode_shape_words
     from seatune.report.inputs import ReportInputs
     from seatune.report.summary import key_figures
 
@@ -138,12 +138,15 @@ def report_stage(run, vessel, echo=print, force: bool = False) -> dict:
         try:
             loading = vessel.loading(**means)
             inp.tuned_raos = tuned_model_raos(run, vessel, loading, windows, motions, raos)
-            inp.tuned_omega_n = dict(zip(("Heave", "Roll", "Pitch"), natural_frequencies(vessel.db, loading)[0],
-                                     strict=True))
+            modes = coupled_modes(vessel.db, loading)
+            inp.tuned_omega_n = dict(zip(("Heave", "Roll", "Pitch"), modes.omega[0], strict=True))
+            inp.mode_shapes = mode_shape_words(modes, "tuned")
         except UserError as err:  # e.g. a tuned mass outside the database's drafts
             inp.tuned_note = f"tuned model not evaluated: {err}"
     else:
         inp.tuned_note = "no tuning history: only the prior model is shown"
+    if not inp.mode_shapes:
+        inp.mode_shapes = mode_shape_words(coupled_modes(vessel.db, vessel.base_loading), "prior")
     row, units = key_figures(inp)
     page = build_report(inp, row, units)
     meta = {"fingerprint": fp, "inputs": [p.name for p in src]}

@@ -214,6 +214,19 @@ def raos_section(inp: ReportInputs) -> str:
                      "90° = waves from starboard).")
 
 
+def mode_shape_words(modes, which: str) -> dict[str, str]:
+    """The model's coupled mode shapes (`physics.modes.Modes`, first condition) in words, by DOF."""
+    draft = float(modes.draft[0])
+    shape = modes.shape[0]
+    return {
+        "Heave": f"{which}: pitch {shape[0, 4]:+.4f} rad per m of heave",
+        "Roll": f"{which}: about a roll centre {modes.roll_centre_z[0] + draft:.2f} m above the keel "
+                f"(sway {shape[1, 1]:+.2f} m/rad at the waterline)",
+        "Pitch": f"{which}: about a pitch centre at x = {modes.pitch_centre_x[0]:+.1f} m, "
+                 f"{modes.pitch_centre_z[0] + draft:.2f} m above the keel",
+    }
+
+
 def natural_frequencies_section(inp: ReportInputs, tuned: dict[str, float] | None) -> str:
     nf = inp.natural_frequencies
     body = H.figure(P.png(P.natural_frequency_plot(nf, tuned)),
@@ -230,12 +243,17 @@ def natural_frequencies_section(inp: ReportInputs, tuned: dict[str, float] | Non
         rows.append({"DOF": dof, "ω_n": r["omega_n"], "95 % interval": f"{r['ci_low']:.3f} – {r['ci_high']:.3f}",
                      "T_n": 2 * np.pi / r["omega_n"], "ζ": r["zeta"], "prior ω_n": r["model_prior"],
                      "measured vs prior": (r["omega_n"] / r["model_prior"] - 1),
-                     "tuned ω_n": (tuned or {}).get(dof, np.nan), "method": r["method"].replace("_", " ")})
+                     "tuned ω_n": (tuned or {}).get(dof, np.nan),
+                     "measured vs tuned": (r["omega_n"] / (tuned or {}).get(dof, np.nan) - 1),
+                     "model mode shape": inp.mode_shapes.get(dof, ""),
+                     "method": r["method"].replace("_", " ") if np.isfinite(r["omega_n"]) else r.get("reason", "")})
     t = pd.DataFrame(rows)
     units = {"ω_n": "rad/s", "95 % interval": "rad/s", "T_n": "s", "ζ": "-", "prior ω_n": "rad/s",
-             "tuned ω_n": "rad/s", "measured vs prior": "%"}
-    body += H.table(t, units, caption="Combined natural frequencies (ζ: damping ratio of the SDOF fit)",
-                    formats={"measured vs prior": _pct}, digits=4)
+             "tuned ω_n": "rad/s", "measured vs prior": "%", "measured vs tuned": "%"}
+    body += H.table(t, units, caption="Combined natural frequencies measured, beside the model's coupled modes "
+                                      "(roots of det(C − ω²(M + A(ω))): roll turns about its roll centre, pitch about "
+                                      "its pitch centre; ζ: damping ratio of the SDOF fit)",
+                    formats={"measured vs prior": _pct, "measured vs tuned": _pct}, digits=4)
     derived = derived_values(nf)
     if derived:
         d = pd.DataFrame([{"derived from ω_n": label, "value": v, "std": s, "unit": u}

@@ -40,7 +40,8 @@ class ReportInputs:
     validation: pd.DataFrame | None = None
     tuned_raos: pd.DataFrame | None = None
     tuned_note: str = ""
-    tuned_omega_n: dict[str, float] | None = None  # the tuned model's uncoupled ω_n by DOF [rad/s]
+    tuned_omega_n: dict[str, float] | None = None  # the tuned model's coupled ω_n by DOF [rad/s]
+    mode_shapes: dict[str, str] = field(default_factory=dict)  # DOF → the model's mode shape, in words
     prediction: pd.DataFrame | None = None  # prediction.parquet (seatune predict)
     prediction_units: dict[str, str] = field(default_factory=dict)
     diagnosis: pd.DataFrame | None = None

@@ -10,7 +10,8 @@ import pandas as pd
 from seatune.report.inputs import ReportInputs
 
 DOFS = ("Heave", "Roll", "Pitch")
-DERIVED = {"displacement": "t", "r44": "m", "gm": "m"}  # always present (NaN when not derived): a stable schema
+# always present (NaN when not derived): a stable schema
+DERIVED = {"displacement": "t", "r44": "m", "gm": "m", "r55": "m"}
 PARAMETER_UNITS = {"mass": "kg", "displacement": "m^3", "xcg": "m", "ycg": "m", "zcg": "m", "r44": "m", "r55": "m",
                    "r66": "m", "gmt_fs": "m", "gml_fs": "m", "beta33": "fraction of critical",
                    "beta44": "fraction of critical", "beta55": "fraction of critical"}
@@ -20,7 +21,8 @@ NOT_DEFECTS = ("records",)  # ingest counts that describe the data rather than a
 def primary_natural_frequencies(nf: pd.DataFrame) -> pd.DataFrame:
     """One combined estimate per DOF (window 'all'): the admittance SDOF fit where there is one."""
     rows = nf[(nf["window_id"] == "all") & nf["derived"].isna()] if "derived" in nf else nf[nf["window_id"] == "all"]
-    rows = rows.assign(_pref=(rows["method"] != "admittance_peak_sdof").astype(int))
+    rows = rows.assign(_pref=(rows["method"] != "admittance_peak_sdof").astype(int)
+                       + 2 * rows["omega_n"].isna().astype(int))  # a value before a reason it has none
     return rows.sort_values("_pref", kind="stable").drop_duplicates("dof").drop(columns="_pref").set_index("dof")
 
 
