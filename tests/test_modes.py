@@ -235,3 +235,21 @@ def test_per_draft_capytaine_files_make_one_database(tmp_path):
     with pytest.raises(UserError, match="omega") as err:
         read_capytaine_files(paths + [tmp_path / "odd.nc"])
     assert "odd.nc" in str(err.value)
+
+
+def test_a_mode_the_waves_do_not_reach_is_reported_with_its_reason():
+    """identify never drops a DOF silently: with the wave energy above 1 rad/s and the roll prior at 0.5 rad/s,
+    roll gets a row without a value that says why (and counts the windows), beside a low-confidence window."""
+    from seatune.io.run_yaml import IdentifySettings
+    from seatune.pipeline.identify import natural_frequency_rows
+
+    om = np.linspace(0.2, 2.0, 200)
+    s_wave = np.where(om > 1.0, 1.0, 0.0)
+    window = {"window_id": "1", "modes": {"Roll": (om, np.ones_like(om), 20.0)}, "low_confidence": False,
+              "omega": om, "s_wave": s_wave}
+    rows = natural_frequency_rows(None, [window, {**window, "window_id": "2", "low_confidence": True}],
+                                  {"Roll": 0.5}, IdentifySettings())
+    roll = [r for r in rows if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof"]
+    assert len(roll) == 1 and np.isnan(roll[0]["omega_n"])
+    assert "no wave energy at the prior ω_n 0.500 rad/s (1 of 2 windows)" in roll[0]["reason"]
+    assert "low-confidence window (1 of 2 windows)" in roll[0]["reason"]
