@@ -101,3 +101,31 @@ def test_set_unknown_parameter(tmp_path):
     res = run_cli("vessel", "rao", SAMPLE_VESSEL, "--set", "kg=7", "--out", tmp_path / "x.parquet")
     assert res.returncode == 2 and "--set kg" in res.stderr
     assert not (tmp_path / "x.parquet").exists()
+
+
+def test_ctrl_c_exits_130_with_one_line(tmp_path):
+    """SIGINT during a stage: exit 130 (128 + SIGINT), one line, no traceback, no half-written artefact."""
+    import signal
+    import time
+
+    from tests.conftest import ROOT
+
+    run = yaml.safe_load((ROOT / "configs/runs/sample.yaml").read_text())
+    base = ROOT / "configs/runs"
+    run["run_dir"] = str(tmp_path / "run")
+    run["vessel"] = str((base / run["vessel"]).resolve())
+    run["hindcast"]["path"] = str((base / run["hindcast"]["path"]).resolve())
+    for log in run["logs"]:
+        log["path"] = str((base / log["path"]).resolve())
+    (tmp_path / "run.yaml").write_text(yaml.safe_dump(run))
+    proc = subprocess.Popen([sys.executable, "-m", "seatune", "run", str(tmp_path / "run.yaml")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while not (tmp_path / "run").exists() and time.monotonic() < deadline:  # inside the ingest stage
+        time.sleep(0.05)
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, (out, err)
+    assert err.strip() == "seatune: interrupted"
+    assert not [p for p in (tmp_path / "run").rglob("*") if p.suffix == ".tmp" or ".tmp" in p.name]

@@ -1,4 +1,4 @@
-"""Thin click CLI: parse, call a pipeline stage, print, exit code (0 ok, 2 user error, 1 internal)."""
+"""Thin click CLI: parse, call a pipeline stage, print, exit code (0 ok, 2 user error, 1 internal, 130 Ctrl-C)."""
 
 from __future__ import annotations
 
@@ -19,6 +19,9 @@ def handle_errors(func):
         except UserError as err:
             click.echo(f"seatune: error: {err}", err=True)
             sys.exit(2)
+        except KeyboardInterrupt:  # the shell convention 128 + SIGINT; atomic writes leave no half-written file
+            click.echo("seatune: interrupted", err=True)
+            sys.exit(130)
     return wrapper
 
 

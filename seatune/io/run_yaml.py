@@ -48,14 +48,14 @@ class HindcastUncertainty(Strict):
 
 class HindcastSource(Strict):
     path: str
-    format: Literal["auto", "era5", "ww3", "csv"] = "auto"
+    format: Literal["auto", "era5", "ww3", "wavespectra", "bulk_netcdf", "csv"] = "auto"
     uncertainty: HindcastUncertainty = HindcastUncertainty()
 
 
 class IngestSettings(Strict):
     rate_hz: PositiveFloat = 10.0
     max_gap_s: PositiveFloat = 2.0  # longer gaps split the record instead of being interpolated
-    frame: Literal["FLU", "NED"] = "FLU"  # body/world frames of the IMU (REP-103 FLU/ENU, or FRD/NED)
+    frame: Literal["FLU", "NED", "auto"] = "FLU"  # IMU frames: REP-103 FLU/ENU, FRD/NED, or auto (NED if frame_id ends _ned)
 
 
 class FilterSettings(Strict):
