@@ -10,9 +10,9 @@ undamped modes as the zeros of det Re Z(ω), and its RAO (`capytaine.post_pro.ra
 import numpy as np
 import pytest
 import xarray as xr
-from scipy.interpolate import CubicSpline
 import yaml
 from numpy.testing import assert_allclose
+from scipy.interpolate import CubicSpline
 
 from seatune.io.capytaine_import import read_capytaine_dataset, read_capytaine_files
 from seatune.physics.hydro import DOFS

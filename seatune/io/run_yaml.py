@@ -55,7 +55,7 @@ class HindcastSource(Strict):
 class IngestSettings(Strict):
     rate_hz: PositiveFloat = 10.0
     max_gap_s: PositiveFloat = 2.0  # longer gaps split the record instead of being interpolated
-    frame: Literal["FLU", "NED", "auto"] = "FLU"  # IMU frames: REP-103 FLU/ENU, FRD/NED, or auto (NED if frame_id ends _ned)
+    frame: Literal["FLU", "NED", "auto"] = "FLU"  # REP-103 FLU/ENU, FRD/NED, or auto (NED if frame_id ends _ned)
 
 
 class FilterSettings(Strict):
