@@ -4,7 +4,7 @@ VENV    := .venv
 BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
 
-.PHONY: install run test test-slow bench lint sample clean
+.PHONY: install run test test-slow bench lint sample clean trial-bank validate
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -39,6 +39,13 @@ sample: $(STAMP)
 golden: $(STAMP)
 	$(BIN)/seatune report configs/runs/sample.yaml --force ingest
 	$(BIN)/python -m seatune.report.golden runs/sample/summary.parquet tests/golden/sample_summary.json
+
+# Blind-validation trial bank (issue 15): seeded trials from the independent path (seatune/simulate/), bit-identical
+# on regeneration. full: 62 trials, ~5 min on 2 cores, ~1.4 GB (not committed); TRIAL_BANK_SUBSET=ci: 6 short trials.
+TRIAL_BANK        ?= trial_bank
+TRIAL_BANK_SUBSET ?= full
+trial-bank: $(STAMP)
+	$(BIN)/python -m seatune.simulate.bank --out $(TRIAL_BANK) --subset $(TRIAL_BANK_SUBSET) --workers 2
 
 lint: $(STAMP)
 	$(BIN)/ruff check seatune tests benchmarks
