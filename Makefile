@@ -47,6 +47,12 @@ TRIAL_BANK_SUBSET ?= full
 trial-bank: $(STAMP)
 	$(BIN)/python -m seatune.simulate.bank --out $(TRIAL_BANK) --subset $(TRIAL_BANK_SUBSET) --workers 2
 
+# seatune on every trial of the bank (seatune batch on Dask), scored against each truth.yaml → validation/
+# (bank_summary.parquet, bank_metrics.parquet with issue 15's targets, confusion.parquet, index.html).
+validate: $(STAMP)
+	@test -f $(TRIAL_BANK)/manifest.yaml || $(MAKE) trial-bank
+	$(BIN)/python -m seatune.validation --bank $(TRIAL_BANK) --out validation --workers 2
+
 lint: $(STAMP)
 	$(BIN)/ruff check seatune tests benchmarks
 

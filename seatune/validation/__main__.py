@@ -1,0 +1,128 @@
+"""`python -m seatune.validation --bank trial_bank --out validation` (`make validate`): seatune on every trial of the
+blind bank (`seatune batch` on Dask), each run scored against its truth.yaml → bank_summary.parquet (one row per
+trial), bank_metrics.parquet (the figures beside issue 15's targets), confusion.parquet and index.html.
+
+Missed targets are reported, not failed on: exit 0 when every trial could be scored, 2 with one line on bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import yaml
+
+from seatune.errors import UserError
+
+ARTEFACTS = ("tuning_history", "validation", "natural_frequencies", "diagnosis")
+
+
+def read_bank(bank: Path) -> list[tuple[str, Path]]:
+    """(trial name, trial folder) of every run in BANK/manifest.yaml."""
+    manifest = bank / "manifest.yaml"
+    if not manifest.is_file():
+        raise UserError(str(manifest), None, "no trial bank here: make one with `make trial-bank`")
+    try:
+        runs = yaml.safe_load(manifest.read_text())["runs"]
+        return [(r["name"], (bank / r["path"]).parent) for r in runs]
+    except (yaml.YAMLError, KeyError, TypeError) as err:
+        raise UserError(str(manifest), "runs", f"not a bank manifest ({err})") from None
+
+
+def read_truth(folder: Path) -> dict:
+    path = folder / "truth.yaml"
+    try:
+        truth = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as err:
+        raise UserError(str(path), None, f"cannot be read ({err})") from None
+    for key in ("trial", "loading", "natural_frequencies", "effects", "vessel"):
+        if not isinstance(truth, dict) or key not in truth:
+            raise UserError(str(path), key, "missing")
+    return truth
+
+
+def run_dir(folder: Path) -> Path:
+    spec = yaml.safe_load((folder / "run.yaml").read_text())
+    return folder / spec.get("run_dir", "run")
+
+
+def model_modes_at_truth(truth: dict, folder: Path, cache: dict) -> dict[str, float]:
+    """The vessel model's coupled ω_n at the true loading (what the model would say with the loading known)."""
+    from seatune.physics.loading import PARAMETERS
+    from seatune.physics.modes import coupled_modes
+    from seatune.pipeline.vessel import open_vessel
+
+    path = (folder / truth["vessel"]).resolve()
+    if path not in cache:
+        cache[path] = open_vessel(path)
+    vessel = cache[path]
+    loading = vessel.loading(**{p: truth["loading"][p] for p in PARAMETERS if p in truth["loading"]})
+    return dict(zip(("heave", "roll", "pitch"), coupled_modes(vessel.db, loading).omega[0].tolist(), strict=True))
+
+
+def score_bank(bank: Path) -> pd.DataFrame:
+    from seatune.validation.score import score_trial
+
+    rows, cache = [], {}
+    for _, folder in read_bank(bank):
+        truth = read_truth(folder)
+        rd = run_dir(folder)
+        arts = {a: pd.read_parquet(rd / f"{a}.parquet") if (rd / f"{a}.parquet").is_file() else None
+                for a in ARTEFACTS}
+        missing = [a for a in ("tuning_history", "natural_frequencies", "diagnosis") if arts[a] is None]
+        status, message = ("ok", "") if not missing else ("failed", f"no {', '.join(missing)} in {rd}")
+        rows.append(score_trial(truth, arts, model_modes_at_truth(truth, folder, cache), status, message))
+    return pd.DataFrame(rows)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m seatune.validation", description=__doc__.splitlines()[0])
+    ap.add_argument("--bank", default="trial_bank", type=Path)
+    ap.add_argument("--out", default="validation", type=Path)
+    ap.add_argument("--workers", default=2, type=int)
+    ap.add_argument("--scheduler", default=None, help="tcp://HOST:PORT of a running Dask scheduler")
+    ap.add_argument("--no-run", action="store_true", help="score the runs already in the bank")
+    args = ap.parse_args(argv)
+    try:
+        from seatune.io.parquet import write_table
+        from seatune.validation.page import write_page
+        from seatune.validation.score import bank_metrics, confusion, summary_units
+
+        read_bank(args.bank)
+        if not args.no_run:  # the same code path as a fleet batch: `seatune batch` on Dask
+            cmd = [sys.executable, "-m", "seatune", "batch", str(args.bank / "manifest.yaml"),
+                   "--workers", str(args.workers), "--out", str(args.out / "fleet")]
+            if args.scheduler:
+                cmd += ["--scheduler", args.scheduler]
+            done = subprocess.run(cmd)
+            if done.returncode == 2:
+                return 2
+        summary = score_bank(args.bank)
+        metrics = bank_metrics(summary)
+        conf = confusion(summary)
+        args.out.mkdir(parents=True, exist_ok=True)
+        write_table(summary, args.out / "bank_summary.parquet", summary_units(summary.columns))
+        write_table(metrics, args.out / "bank_metrics.parquet",
+                    {"metric": "", "group": "", "value": "see metric", "n": "", "target": "see metric",
+                     "passed": ""})
+        c = conf.reset_index()
+        write_table(c, args.out / "confusion.parquet", {k: "" for k in c.columns})
+        page = write_page(args.out / "index.html", summary, metrics, conf)
+    except UserError as err:
+        print(f"seatune: error: {err}", file=sys.stderr)
+        return 2
+    ok = summary["status"] == "ok"
+    print(f"validate: {int(ok.sum())} of {len(summary)} trials scored → {page}")
+    for r in metrics[metrics["target"].notna()].itertuples():
+        mark = "–" if r.passed is None or (isinstance(r.passed, float) and np.isnan(r.passed)) else (
+            "pass" if r.passed else "MISS")
+        print(f"  {r.metric:<30} {r.group:<34} {r.value:8.3f} (n={r.n}, target {r.target:g}) {mark}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,187 @@
+"""Scoring a seatune run against the truth of a blind trial, and the bank's figures against issue 15's targets.
+
+Pure computation: a trial's truth (truth.yaml as a dict) and its run artefacts (DataFrames) in, one row out;
+the bank's rows in, the figures out. Nothing here reads or writes files.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+VESSEL_EFFECTS = ("quadratic_roll_damping", "moonpool", "anti_roll_tank", "imu_lever_arm", "imu_misalignment")
+SEA_EFFECTS = ("hs_bias", "missing_swell", "wave_spreading")
+DOFS = ("heave", "roll", "pitch")
+PARAMETERS = ("gmt_fs", "r44", "beta44", "xcg", "r55")
+# issue 15's targets: parameter → (tolerance, "abs" | "rel")
+PARAMETER_TOLERANCE = {"gmt_fs": (0.05, "abs"), "r44": (0.02, "rel"), "beta44": (0.005, "abs")}
+TARGETS = {"false_alarm_rate": 0.05, "effect_hit_rate": 0.90, "compound_both_rate": 0.80, "omega_reported": 1.0,
+           "omega_within_2pct": 1.0, "parameter_within_tolerance": 1.0, "coverage_2sigma": 0.90}
+
+
+def verdict(true_effects: set[str], named: set[str]) -> str:
+    """correct_none / false_alarm on a clean trial; hit / partial / wrong_effect / miss on a trial with effects.
+    Only vessel-side names count: a sea-side explanation (missing swell, Hs bias) of a clean trial is no alarm."""
+    named = named & set(VESSEL_EFFECTS)
+    if not true_effects:
+        return "correct_none" if not named else "false_alarm"
+    if true_effects <= named:
+        return "hit"
+    if true_effects & named:
+        return "partial"
+    return "wrong_effect" if named else "miss"
+
+
+def final_posterior(history: pd.DataFrame | None) -> dict[str, tuple[float, float]]:
+    """{parameter: (mean, std)} after the last update of tuning_history.parquet."""
+    if history is None or history.empty:
+        return {}
+    last = history[history["update"] == history["update"].max()]
+    return {r.parameter: (float(r.mean), float(r.std)) for r in last.itertuples()}
+
+
+def heldout_error(validation: pd.DataFrame | None, column: str) -> float:
+    """Mean |ln(predicted/measured)| of σ over the held-out windows (as `seatune tune` prints it)."""
+    if validation is None or validation.empty:
+        return np.nan
+    held = validation[validation["role"] == "holdout"]
+    held = held if len(held) else validation
+    return float(np.mean(np.abs(np.log(held[column] / held["measured"]))))
+
+
+def primary_modes(nf: pd.DataFrame | None) -> dict[str, dict]:
+    """{dof: {omega_n, ci_low, ci_high, reason}} of identify's combined estimate (admittance fit first; a value
+    before a reason), lower-case DOF names."""
+    out: dict[str, dict] = {}
+    if nf is None or nf.empty:
+        return out
+    rows = nf[(nf["window_id"] == "all") & nf["derived"].isna()].copy()
+    rows["_pref"] = (rows["method"] != "admittance_peak_sdof").astype(int) + 2 * rows["omega_n"].isna().astype(int)
+    for r in rows.sort_values("_pref", kind="stable").drop_duplicates("dof").itertuples():
+        out[str(r.dof).lower()] = {"omega_n": float(r.omega_n), "ci_low": float(r.ci_low),
+                                   "ci_high": float(r.ci_high), "reason": str(getattr(r, "reason", "") or "")}
+    return out
+
+
+def score_trial(truth: dict, artefacts: dict[str, pd.DataFrame | None], model_modes: dict[str, float] | None = None,
+                status: str = "ok", message: str = "") -> dict:
+    """One row of bank_summary.parquet. `artefacts`: tuning_history, validation, natural_frequencies, diagnosis
+    (None when missing); `model_modes`: the vessel model's coupled ω_n at the true loading by DOF."""
+    true_effects = {e["kind"] for e in truth.get("effects") or []}
+    diag = artefacts.get("diagnosis")
+    named = set() if diag is None else {str(e) for e in diag.loc[diag["selected"].astype(bool), "effect"]} - {"none"}
+    row = {"trial": truth["trial"], "hull": truth.get("hull", ""), "category": truth.get("category", ""),
+           "status": status, "message": message,
+           "hindcast_layout": (truth.get("hindcast") or {}).get("layout", ""),
+           "missing_swell": bool((truth.get("hindcast") or {}).get("missing_swell", False)),
+           "n_windows": len(truth.get("windows") or []),
+           "true_effects": "+".join(sorted(true_effects)) or "none",
+           "named_effects": "+".join(sorted(named & set(VESSEL_EFFECTS))) or "none",
+           "named_sea_side": "+".join(sorted(named & set(SEA_EFFECTS))) or "none",
+           "verdict": verdict(true_effects, named) if status == "ok" else "failed"}
+    post = final_posterior(artefacts.get("tuning_history"))
+    for p in PARAMETERS:
+        t = float(truth["loading"][p]) if p in truth.get("loading", {}) else np.nan
+        mean, std = post.get(p, (np.nan, np.nan))
+        err = mean - t
+        row |= {f"{p}_truth": t, f"{p}_estimate": mean, f"{p}_std": std, f"{p}_error": err,
+                f"{p}_within_2sigma": bool(abs(err) <= 2 * std) if np.isfinite(err) else None}
+        if p in PARAMETER_TOLERANCE:
+            tol, kind = PARAMETER_TOLERANCE[p]
+            row[f"{p}_within_tolerance"] = (bool(abs(err) <= tol * (abs(t) if kind == "rel" else 1.0))
+                                            if np.isfinite(err) else None)
+    modes = primary_modes(artefacts.get("natural_frequencies"))
+    for d in DOFS:
+        t = float((truth.get("natural_frequencies") or {}).get(d, np.nan))
+        m = modes.get(d, {"omega_n": np.nan, "ci_low": np.nan, "ci_high": np.nan, "reason": ""})  # silent
+        reported = bool(np.isfinite(m["omega_n"]))
+        model = (model_modes or {}).get(d, np.nan)
+        row |= {f"omega_{d}_truth": t, f"omega_{d}_reported": reported, f"omega_{d}_estimate": m["omega_n"],
+                f"omega_{d}_rel_error": m["omega_n"] / t - 1 if reported else np.nan,
+                f"omega_{d}_truth_in_ci": bool(m["ci_low"] <= t <= m["ci_high"]) if reported else None,
+                f"omega_{d}_reason": "" if reported else m["reason"],
+                f"omega_{d}_model_at_truth": model, f"omega_{d}_model_rel_error": model / t - 1,
+                f"omega_{d}_model_in_ci": bool(m["ci_low"] <= model <= m["ci_high"]) if reported else None}
+    row["heldout_error_prior"] = heldout_error(artefacts.get("validation"), "predicted_prior")
+    row["heldout_error_tuned"] = heldout_error(artefacts.get("validation"), "predicted_tuned")
+    return row
+
+
+def summary_units(columns) -> dict[str, str]:
+    units = {}
+    for c in columns:
+        if c.startswith("omega_") and c.endswith(("_truth", "_estimate", "_model_at_truth")):
+            units[c] = "rad/s"
+        elif c.endswith(("_rel_error", "_model_rel_error")) or c.startswith("heldout_error"):
+            units[c] = "dimensionless"
+        elif c.split("_")[0] in ("gmt", "r44", "xcg", "r55") and c.endswith(("_truth", "_estimate", "_std", "_error")):
+            units[c] = "m"
+        elif c.startswith("beta44") and c.endswith(("_truth", "_estimate", "_std", "_error")):
+            units[c] = "fraction of critical"
+        else:
+            units[c] = ""
+    return units
+
+
+def _rate(x: pd.Series) -> tuple[float, int]:
+    x = x.dropna().astype(bool)
+    return (float(x.mean()) if len(x) else np.nan), int(len(x))
+
+
+def bank_metrics(summary: pd.DataFrame) -> pd.DataFrame:
+    """One row per figure: metric, group, value, n (trials it is over), target, passed (None without target)."""
+    ok = summary[summary["status"] == "ok"]
+    out = []
+
+    def add(metric, group, value, n, target=None, higher_better=True):
+        passed = None if target is None or not np.isfinite(value) else bool(
+            value >= target if higher_better else value <= target)
+        out.append({"metric": metric, "group": group, "value": value, "n": n, "target": target, "passed": passed})
+
+    add("runs_ok", "all", float(len(ok)), len(summary))
+    clean = ok[ok["category"] == "clean"]
+    for group, part in (("clean", clean), ("clean, hindcast missing a swell", clean[clean["missing_swell"]]),
+                        ("clean, full hindcast", clean[~clean["missing_swell"]])):
+        add("false_alarm_rate", group, *_rate(part["verdict"] == "false_alarm"), TARGETS["false_alarm_rate"],
+            higher_better=False)
+    for effect in VESSEL_EFFECTS:
+        part = ok[ok["category"] == effect]
+        add("effect_hit_rate", effect, *_rate(part["verdict"] == "hit"), TARGETS["effect_hit_rate"])
+    comp = ok[ok["category"] == "compound"]
+    add("compound_both_rate", "compound", *_rate(comp["verdict"] == "hit"), TARGETS["compound_both_rate"])
+    add("compound_one_or_more_rate", "compound", *_rate(comp["verdict"].isin(["hit", "partial"])))
+    for p in PARAMETERS:
+        err = ok[f"{p}_error"].dropna()
+        if err.empty:
+            continue
+        add("parameter_median_abs_error", p, float(err.abs().median()), len(err))
+        add("parameter_p90_abs_error", p, float(err.abs().quantile(0.9)), len(err))
+        if f"{p}_within_tolerance" in ok:
+            add("parameter_within_tolerance", p, *_rate(ok[f"{p}_within_tolerance"]),
+                TARGETS["parameter_within_tolerance"])
+        add("coverage_2sigma", p, *_rate(ok[f"{p}_within_2sigma"]), TARGETS["coverage_2sigma"])
+    for d in DOFS:
+        add("omega_value_or_reason", d, *_rate(ok[f"omega_{d}_reported"] | (ok[f"omega_{d}_reason"] != "")),
+            TARGETS["omega_reported"])
+        add("omega_reported_with_value", d, *_rate(ok[f"omega_{d}_reported"]))
+        reported = ok[ok[f"omega_{d}_reported"]]
+        add("omega_within_2pct", d, *_rate(reported[f"omega_{d}_rel_error"].abs() <= 0.02),
+            TARGETS["omega_within_2pct"])
+        rel = reported[f"omega_{d}_rel_error"].abs()
+        add("omega_median_abs_rel_error", d, float(rel.median()) if len(rel) else np.nan, len(rel))
+        add("omega_truth_in_ci", d, *_rate(reported[f"omega_{d}_truth_in_ci"]))
+        add("model_mode_max_abs_rel_error", d, float(ok[f"omega_{d}_model_rel_error"].abs().max()), len(ok),
+            0.005, higher_better=False)
+        add("model_mode_in_measured_ci", d, *_rate(reported[f"omega_{d}_model_in_ci"]), 0.90)
+    for col in ("heldout_error_prior", "heldout_error_tuned"):
+        v = ok[col].dropna()
+        add(f"median_{col}", "all", float(v.median()) if len(v) else np.nan, len(v))
+    add("heldout_improved_rate", "all", *_rate((ok["heldout_error_tuned"] < ok["heldout_error_prior"])
+                                                [ok["heldout_error_prior"].notna()]))
+    return pd.DataFrame(out)
+
+
+def confusion(summary: pd.DataFrame) -> pd.DataFrame:
+    """Trials counted by truth category (rows) × vessel-side effects named (columns, 'none' included)."""
+    ok = summary[summary["status"] == "ok"]
+    return pd.crosstab(ok["category"], ok["named_effects"]).sort_index()

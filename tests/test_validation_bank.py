@@ -1,0 +1,92 @@
+"""make validate's scoring (seatune.validation), on hand-made tables and end to end on the bank's ci subset:
+trials from the independent path → `seatune batch` on Dask → scored against each truth.yaml."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from seatune.validation.score import bank_metrics, confusion, score_trial, verdict
+
+
+def test_verdicts():
+    assert verdict(set(), set()) == "correct_none"
+    assert verdict(set(), {"missing_swell"}) == "correct_none"  # a sea-side explanation is no alarm
+    assert verdict(set(), {"moonpool"}) == "false_alarm"
+    assert verdict({"moonpool"}, {"moonpool", "hs_bias"}) == "hit"
+    assert verdict({"moonpool", "imu_lever_arm"}, {"moonpool"}) == "partial"
+    assert verdict({"moonpool"}, {"anti_roll_tank"}) == "wrong_effect"
+    assert verdict({"moonpool"}, set()) == "miss"
+
+
+def _truth(trial, category, effects, r44=8.0, roll=0.5):
+    return {"trial": trial, "hull": "osv", "category": category, "effects": [{"kind": e} for e in effects],
+            "loading": {"gmt_fs": 0.2, "r44": r44, "beta44": 0.05, "xcg": 0.0, "r55": 24.0},
+            "natural_frequencies": {"heave": 0.9, "roll": roll, "pitch": 0.95},
+            "hindcast": {"layout": "bulk", "missing_swell": category == "clean"}, "windows": [{}, {}, {}]}
+
+
+def _artefacts(named, r44_mean, r44_std, roll=None):
+    history = pd.DataFrame({"update": [0, 0, 2, 2], "parameter": ["r44", "gmt_fs", "r44", "gmt_fs"],
+                            "mean": [8.4, 0.2, r44_mean, 0.21], "std": [0.6, 0.15, r44_std, 0.1]})
+    nf = pd.DataFrame({"dof": ["Heave", "Roll", "Pitch"], "method": "admittance_peak_sdof", "window_id": "all",
+                       "omega_n": [0.91, np.nan if roll is None else roll, 0.95], "ci_low": [0.89, np.nan, 0.94],
+                       "ci_high": [0.93, np.nan, 0.96], "derived": None,
+                       "reason": ["", "not identified: no wave energy" if roll is None else "", ""]})
+    diag = pd.DataFrame({"effect": ["none", "moonpool", "missing_swell"],
+                         "selected": [False, "moonpool" in named, "missing_swell" in named]})
+    val = pd.DataFrame({"role": ["train", "holdout"], "measured": [1.0, 1.0], "predicted_prior": [1.5, 2.0],
+                        "predicted_tuned": [1.1, np.e]})
+    return {"tuning_history": history, "natural_frequencies": nf, "diagnosis": diag, "validation": val}
+
+
+def test_a_trial_row_and_the_bank_figures_by_hand():
+    rows = [score_trial(_truth("a", "clean", []), _artefacts({"missing_swell"}, 8.2, 0.15), {"roll": 0.5}),
+            score_trial(_truth("b", "clean", []), _artefacts({"moonpool"}, 8.5, 0.2), {"roll": 0.502}),
+            score_trial(_truth("c", "moonpool", ["moonpool"]), _artefacts({"moonpool"}, 8.0, 0.1, roll=0.49),
+                        {"roll": 0.5})]
+    a, b, c = rows
+    assert (a["verdict"], b["verdict"], c["verdict"]) == ("correct_none", "false_alarm", "hit")
+    assert a["named_sea_side"] == "missing_swell" and a["named_effects"] == "none"
+    assert a["r44_error"] == pytest.approx(0.2) and a["r44_within_2sigma"] and not a["r44_within_tolerance"]
+    assert not b["r44_within_2sigma"]  # 0.5 m off with σ 0.2 m
+    assert a["omega_roll_reported"] is False and a["omega_roll_reason"] == "not identified: no wave energy"
+    assert c["omega_roll_rel_error"] == pytest.approx(-0.02)
+    assert a["heldout_error_prior"] == pytest.approx(np.log(2.0)) and a["heldout_error_tuned"] == pytest.approx(1.0)
+    assert b["omega_roll_model_rel_error"] == pytest.approx(0.004)
+    m = bank_metrics(pd.DataFrame(rows)).set_index(["metric", "group"])
+    assert m.loc[("false_alarm_rate", "clean"), "value"] == 0.5
+    assert not m.loc[("false_alarm_rate", "clean"), "passed"]
+    assert m.loc[("effect_hit_rate", "moonpool"), "value"] == 1.0
+    assert m.loc[("coverage_2sigma", "r44"), "value"] == pytest.approx(2 / 3)
+    assert m.loc[("omega_value_or_reason", "roll"), "value"] == 1.0  # value or reason in all three
+    assert m.loc[("omega_reported_with_value", "roll"), "value"] == pytest.approx(1 / 3)
+    conf = confusion(pd.DataFrame(rows))
+    assert conf.loc["clean", "moonpool"] == 1 and conf.loc["clean", "none"] == 1 and conf.values.sum() == 3
+
+
+def test_make_validate_on_the_ci_bank(tmp_path):
+    """The same code path as `make validate` on six short trials of both hulls (clean, effects, compound)."""
+    bank, out = tmp_path / "bank", tmp_path / "validation"
+    gen = subprocess.run([sys.executable, "-m", "seatune.simulate.bank", "--out", str(bank), "--subset", "ci",
+                          "--workers", "2"], capture_output=True, text=True)
+    assert gen.returncode == 0, gen.stderr[-2000:]
+    res = subprocess.run([sys.executable, "-m", "seatune.validation", "--bank", str(bank), "--out", str(out),
+                          "--workers", "2"], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert "trials scored" in res.stdout
+    summary = pd.read_parquet(out / "bank_summary.parquet")
+    assert len(summary) == 6 and (summary["status"] == "ok").all(), summary[["trial", "message"]]
+    assert set(summary["hull"]) == {"osv", "barge"}
+    assert confusion(summary).values.sum() == 6
+    # the model's coupled modes at the true loading are the independent generator's roots (issue 21)
+    for d in ("heave", "roll", "pitch"):
+        assert summary[f"omega_{d}_model_rel_error"].abs().max() < 0.005
+        # every DOF has a value or the reason it has none, never a silent omission
+        assert (summary[f"omega_{d}_reported"] | (summary[f"omega_{d}_reason"] != "")).all()
+    metrics = pd.read_parquet(out / "bank_metrics.parquet")
+    assert {"false_alarm_rate", "coverage_2sigma", "omega_value_or_reason"} <= set(metrics["metric"])
+    assert "Figures against the targets" in (out / "index.html").read_text()
+    assert (out / "fleet" / "fleet_summary.parquet").is_file()
