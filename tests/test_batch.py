@@ -273,7 +273,7 @@ def readable(path):
         pytest.fail(f"unexpected file in the run directory: {path.name}")
 
 
-@pytest.mark.slow  # a soak of many kills (~3 min); `make test-slow` runs it, the kill-and-resume test stays in `make test`
+@pytest.mark.slow  # a soak of many kills (~3 min) for `make test-slow`; kill-and-resume stays in `make test`
 def test_sigkill_at_random_moments_never_leaves_a_corrupt_artefact(tmp_path, finished):
     path = sample_run(tmp_path / "run.yaml", tmp_path / "run")
     run_dir = tmp_path / "run"

@@ -271,8 +271,8 @@ def test_seatune_ingest_reads_a_generated_trial(tmp_path):
 
 def test_coupled_oscillators_change_the_response_where_they_should(osv):
     """Anti-roll tank tuned to the roll root: the roll RAO at the root drops (absorber notch) and two peaks appear
-    beside it; moonpool: the heave RAO changes a lot near ω_p and little far below it; the tank reduces to the plain Capytaine
-    RAO when their coupling vanishes."""
+    beside it; moonpool: the heave RAO changes a lot near ω_p and little far below it; the tank reduces to the plain
+    Capytaine RAO when their coupling vanishes."""
     spec = _one_window_spec()
     cond = hydro.condition(osv, spec.loading)
     roots = hydro.coupled_natural_frequencies(cond)
