@@ -249,7 +249,9 @@ def dask_client(workers: int, scheduler: str | None = None, one_thread: bool = T
     settings = {"distributed.worker.profile.enabled": False,
                 "distributed.nanny.pre-spawn-environ": SINGLE_THREAD_ENV if one_thread else {}}
     with dask.config.set(settings):
+        # no dashboard, and the scheduler's HTTP routes on a free port: two batches on one machine never clash
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                               scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
                                silence_logs=logging.ERROR)
     with cluster, Client(cluster) as client:
         yield client
