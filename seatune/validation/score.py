@@ -50,17 +50,15 @@ def heldout_error(validation: pd.DataFrame | None, column: str) -> float:
 
 
 def primary_modes(nf: pd.DataFrame | None) -> dict[str, dict]:
-    """{dof: {omega_n, ci_low, ci_high, reason}} of identify's combined estimate (admittance fit first; a value
-    before a reason), lower-case DOF names."""
-    out: dict[str, dict] = {}
+    """{dof: {omega_n, ci_low, ci_high, reason}} of identify's combined estimate, as the report picks it
+    (`report.summary.primary_natural_frequencies`), lower-case DOF names."""
+    from seatune.report.summary import primary_natural_frequencies
+
     if nf is None or nf.empty:
-        return out
-    rows = nf[(nf["window_id"] == "all") & nf["derived"].isna()].copy()
-    rows["_pref"] = (rows["method"] != "admittance_peak_sdof").astype(int) + 2 * rows["omega_n"].isna().astype(int)
-    for r in rows.sort_values("_pref", kind="stable").drop_duplicates("dof").itertuples():
-        out[str(r.dof).lower()] = {"omega_n": float(r.omega_n), "ci_low": float(r.ci_low),
-                                   "ci_high": float(r.ci_high), "reason": str(getattr(r, "reason", "") or "")}
-    return out
+        return {}
+    return {str(dof).lower(): {"omega_n": float(r["omega_n"]), "ci_low": float(r["ci_low"]),
+                               "ci_high": float(r["ci_high"]), "reason": str(r.get("reason", "") or "")}
+            for dof, r in primary_natural_frequencies(nf).iterrows()}
 
 
 def score_trial(truth: dict, artefacts: dict[str, pd.DataFrame | None], model_modes: dict[str, float] | None = None,
