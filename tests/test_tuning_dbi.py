@@ -16,6 +16,7 @@ from scipy.stats import norm, truncnorm
 
 from seatune.tuning.dbi import (
     DBI,
+    auto_pmf_points,
     cubic_interpolation_matrix,
     interpolate_tensor,
     linear_interpolation_matrix,
@@ -347,6 +348,58 @@ def test_large_grid_update():
     post = dbi.update(model, observe(model, [0.3, -0.3, 0.0, 0.0]), hypotheses(2.0, 0.1, n=9))
     assert dbi.joint_.size == 1_800_000 and abs(dbi.joint_.sum() - 1) < 1e-9
     assert post.std[0] < 0.9 and post.sea_state_mean is not None
+
+
+def test_auto_grid_size_keeps_five_parameters_under_the_budget():
+    # 40⁵ = 1.0e8 cells (0.8 GB per float64 copy) made a 5-parameter tune grow past 14 GB.
+    assert [auto_pmf_points(m) for m in (1, 2, 3, 4, 5, 6)] == [40, 40, 40, 37, 18, 11]
+    params = [Parameter(n, 0.0, 1.0, -10, 10) for n in ("x", "y", "u", "v", "w")]
+    dbi = DBI(params, pmf_points="auto")
+    assert dbi.joint_.shape == (18,) * 5 and dbi.joint_.size <= 2_000_000
+
+
+def _sequential(dbi, model, truth, n_windows, seed=11):
+    rng = np.random.default_rng(seed)
+    for hs in rng.uniform(1, 3, n_windows):
+        post = dbi.update(model, observe(model, truth, hs=hs, rel_noise=0.03, rng=rng), certain(hs))
+    return post
+
+
+def test_zoomed_grid_matches_a_fine_grid_where_a_coarse_one_cannot():
+    # Eight windows narrow the posterior to STD ≈ (0.04, 0.07) on a prior range of ±3: 15 points per axis
+    # (spacing 0.43) cannot hold it; zoomed after each update they give the 151 × 61-point posterior.
+    model = AnalyticModel(names=NAMES[:2], parameter_names=("x", "y"))
+    truth = np.array([0.8, -0.5])
+    fine = _sequential(DBI([X, Y], pmf_points=(151, 61), interpolation="cubic"), model, truth, 8)
+    coarse = _sequential(DBI([X, Y], pmf_points=15, interpolation="cubic"), model, truth, 8)
+    zoomed_dbi = DBI([X, Y], pmf_points=15, interpolation="cubic", regrid=True)
+    zoomed = _sequential(zoomed_dbi, model, truth, 8)
+    print(f"std fine {fine.std}, coarse {coarse.std}, zoomed {zoomed.std}; mean fine {fine.mean}, "
+          f"zoomed {zoomed.mean}; zoomed widths {[g[-1] - g[0] for g in zoomed_dbi.grids]}")
+    assert_allclose(zoomed.std, fine.std, rtol=0.15)
+    assert np.all(np.abs(zoomed.mean - fine.mean) < 0.25 * fine.std)
+    assert np.all(np.abs(coarse.std - fine.std) > 0.3 * fine.std)  # the coarse grid is really off
+    assert all(g[-1] - g[0] < 1.5 for g in zoomed_dbi.grids)  # zoomed from a width of 6
+
+
+@pytest.mark.parametrize(("later", "tolerance"), [(0.5, 0.1), (1.2, 3.0)])
+def test_zoomed_grid_widens_when_the_evidence_moves(later, tolerance):
+    # Three windows say x ≈ 0 (posterior STD 0.05, zoomed grid ±0.3), twelve then say x = `later`: 10 and 24
+    # posterior STDs away, outside the zoomed grid. The prior is widened and the update made again; the
+    # posterior ends where a fine fixed grid puts it — to 0.1 STD at 10 STDs. At 24 STDs the prior's far tail
+    # (a parabola continued in log, while this model's log-likelihood falls faster) leaves 2 STDs.
+    model = AnalyticModel(names=NAMES[:1], parameter_names=("x",))
+    runs = {}
+    for name, kwargs in {"fine": {"pmf_points": 401}, "zoomed": {"pmf_points": 21, "regrid": True}}.items():
+        dbi = DBI([X], interpolation="cubic", database_points=13, **kwargs)
+        for truth in [0.0] * 3 + [later] * 12:
+            post = dbi.update(model, observe(model, [truth], rel_noise=0.03), certain())
+        runs[name] = post
+        width = dbi.grids[0][-1] - dbi.grids[0][0]
+    print({k: (float(p.mean[0]), float(p.std[0])) for k, p in runs.items()})
+    assert width < 0.5  # still zoomed
+    assert abs(runs["zoomed"].mean[0] - runs["fine"].mean[0]) < tolerance * runs["fine"].std[0]
+    assert_allclose(runs["zoomed"].std, runs["fine"].std, rtol=0.02 if tolerance < 1 else 0.2)
 
 
 def test_invalid_settings_are_one_line_errors():

@@ -85,7 +85,10 @@ class IdentifySettings(Strict):
 
 class DbiSettings(Strict):
     database_points: Annotated[int, Field(ge=2)] = 7  # I_m per parameter (A2)
-    pmf_points: Annotated[int, Field(ge=3)] = 40  # K_m per parameter
+    # K_m per parameter; auto: min(40, ⌊pmf_budget^(1/M)⌋), so 5 parameters take 18⁵ cells, not 40⁵ (100 M)
+    pmf_points: Annotated[int, Field(ge=3)] | Literal["auto"] = "auto"
+    pmf_budget: Annotated[int, Field(ge=27)] = 2_000_000
+    regrid: bool = True  # zoom each axis onto its posterior after an update (resolution where it lives)
     likelihood: Literal["gaussian", "idw"] = "gaussian"
     power: PositiveFloat = 0.4  # IDW power p (A2 eq. 10)
     screening_alpha: Annotated[float, Field(ge=0)] = 0.05  # α0 (A2 eq. 9)

@@ -107,7 +107,7 @@ def make_backend(settings, parameters):
         return DBI(parameters, database_points=s.database_points, pmf_points=s.pmf_points, likelihood=s.likelihood,
                    power=s.power, screening_alpha=s.screening_alpha, model_error=s.model_error,
                    interpolation=s.interpolation if s.likelihood == "gaussian" else "linear",
-                   hypothesis_mixing=s.hypothesis_mixing)
+                   hypothesis_mixing=s.hypothesis_mixing, pmf_budget=s.pmf_budget, regrid=s.regrid)
     from seatune.tuning.ukf import UKF
 
     s = settings.ukf

@@ -46,6 +46,16 @@ Choices where the papers are silent, and deliberate deviations:
   prior; the sea-state-dependent parameters — those given a fresh marginal in this update — take their
   marginal from the posterior with p2, all others from the posterior with p. The stored joint is the
   product of the two (their correlation is discarded at the next update by A4 eq. 18 anyway).
+* Grid size (not in A2, which tunes 2–3 parameters on 40 points each). ``pmf_points="auto"`` takes
+  K = min(40, ⌊budget^(1/M)⌋) per axis, so five parameters use 18⁵ ≈ 1.9 M cells instead of 40⁵ ≈ 100 M
+  (a 5-parameter tune grew past 14 GB and never finished).
+* Grid zoom (``regrid=True``, not in A2; a point-mass filter's adaptive grid). After an update each axis
+  whose posterior is much narrower than its grid is re-gridded to mean ± 6·std inside the prior
+  range (at least ±2Δ), the log-PMF interpolated onto it by a cubic spline (exact for a Gaussian). When
+  an update's posterior reaches the edge of a zoomed grid (edge-cell mass > 1e-3), the *prior* of that
+  update is widened (×2, its log-PMF's edge parabola continued: a Gaussian tail) and the update made
+  again. A coarse grid so keeps its resolution where the posterior lives. Axes given a fresh marginal
+  (A4 eq. 18) keep the prior range.
 """
 
 from __future__ import annotations
@@ -59,7 +69,7 @@ from scipy.interpolate import CubicSpline
 
 from seatune.tuning.interface import ForwardModel, Observation, Parameter, Posterior, SeaState
 
-__all__ = ["DBI", "QUANTILES", "cubic_interpolation_matrix", "discretised_gaussian", "interpolate_tensor",
+__all__ = ["DBI", "QUANTILES", "auto_pmf_points", "cubic_interpolation_matrix", "discretised_gaussian", "interpolate_tensor",
            "linear_interpolation_matrix"]
 
 QUANTILES = (0.05, 0.5, 0.95)
@@ -139,6 +149,8 @@ def discretised_gaussian(grid: ArrayLike, mean: float, std: float) -> np.ndarray
 
 
 def _per_axis(value: int | Sequence[int], n: int, what: str) -> tuple[int, ...]:
+    if isinstance(value, str):
+        raise ValueError(f"{what}: {value!r} is not a size")
     sizes = (value,) * n if np.isscalar(value) else tuple(value)
     if len(sizes) != n:
         raise ValueError(f"{what}: {len(sizes)} values for {n} parameters")
@@ -194,10 +206,10 @@ class DBI:
     name = "dbi"
 
     def __init__(self, parameters: Sequence[Parameter], *, database_points: int | Sequence[int] = 7,
-                 pmf_points: int | Sequence[int] = 40, likelihood: Likelihood = "gaussian", power: float = 0.4,
+                 pmf_points: int | Sequence[int] | Literal["auto"] = 40, likelihood: Likelihood = "gaussian", power: float = 0.4,
                  power_sea_state_dependent: float | None = None, screening_alpha: float = 0.05,
                  model_error: float = 0.0, hypothesis_mixing: Mixing = "joint", interpolation: Interpolation = "linear",
-                 epsilon: float = 1e-9):
+                 epsilon: float = 1e-9, pmf_budget: int = 2_000_000, regrid: bool = False):
         self.parameters = tuple(parameters)
         names = [p.name for p in self.parameters]
         if not names:
@@ -236,19 +248,22 @@ class DBI:
         self.epsilon = float(epsilon)
 
         m = len(self.parameters)
+        if isinstance(pmf_points, str) and pmf_points == "auto":
+            pmf_points = auto_pmf_points(m, pmf_budget)
         self.pmf_points = _per_axis(pmf_points, m, "pmf_points")
+        self.regrid = bool(regrid)
+        self._fresh_axes: set[int] = set()
         self.database_points_per_axis = _per_axis(database_points, m, "database_points")
         # A2 step 1: μ ± 3σ, clipped to the hard bounds ("unrealistic values are removed").
         ranges = [(max(p.lower, p.prior_mean - 3 * p.prior_std), min(p.upper, p.prior_mean + 3 * p.prior_std))
                   for p in self.parameters]
+        self.prior_ranges = tuple(ranges)
         self.grids = tuple(np.linspace(lo, hi, k) for (lo, hi), k in zip(ranges, self.pmf_points, strict=True))
         self.database_grids = tuple(np.linspace(lo, hi, i)
                                     for (lo, hi), i in zip(ranges, self.database_points_per_axis, strict=True))
         mesh = np.meshgrid(*self.database_grids, indexing="ij")
         self.database_points = np.stack([g.ravel() for g in mesh], axis=1)  # (R, M), A2 eq. 7
-        matrix = linear_interpolation_matrix if interpolation == "linear" else cubic_interpolation_matrix
-        self._to_pmf = [matrix(d, g) for d, g in zip(self.database_grids, self.grids, strict=True)]
-        self._to_pmf32 = [m.astype(np.float32) for m in self._to_pmf]
+        self._set_grids(self.grids)
 
         # A2 eqs. 2–4: independent Gaussian priors, joint = product of the discretised marginals.
         marginals = [discretised_gaussian(g, p.prior_mean, p.prior_std) for g, p in zip(self.grids, self.parameters,
@@ -317,10 +332,13 @@ class DBI:
         if keep.any():
             predicted, z, variance = predicted[..., keep], z[keep], variance[keep]
             scaled, r2 = self._common_scale(used, z, observation, sea_state)
-            log_prior = self._log(self.joint_)
-            log_like, log_evidence, scale = self._log_likelihood(predicted, z, variance, hyp_weights, self.power,
-                                                                 log_prior, scaled, r2)
-            posterior = self._bayes(log_prior, log_like)  # A2 eqs. 12–13, A4 eq. 6
+            for _ in range(_MAX_WIDENINGS + 1):
+                log_prior = self._log(self.joint_)
+                log_like, log_evidence, scale = self._log_likelihood(predicted, z, variance, hyp_weights,
+                                                                     self.power, log_prior, scaled, r2)
+                posterior = self._bayes(log_prior, log_like)  # A2 eqs. 12–13, A4 eq. 6
+                if not (self.regrid and self._regrid(posterior, widen_prior=True)):
+                    break  # else the prior was widened where the posterior reached a zoomed edge: again
             p2 = self.power_sea_state_dependent
             if p2 is not None and dependent:
                 # A4 §2.5 two-step: same prior, p2 for the sea-state-dependent marginals, p for the others.
@@ -341,6 +359,9 @@ class DBI:
         self.n_updates_ += 1
         self.hs_scale_ = scale
         self._summary = self._summarise(used, sea_state, sea_post, scale)
+        self._fresh_axes.update(dependent)
+        if self.regrid and keep.any():
+            self._regrid(self.joint_)  # after the summary, which stays on the grid the update was made on
         return self._summary
 
     def posterior(self) -> Posterior:
@@ -515,6 +536,58 @@ class DBI:
                          marginals={n: (g.copy(), p) for n, g, p in zip(self.names, self.grids, marginals,
                                                                         strict=True)})
 
+    # ------------------------------------------------------------------ grid zoom
+
+    def _set_grids(self, grids: Sequence[np.ndarray]) -> None:
+        self.grids = tuple(np.asarray(g, dtype=float) for g in grids)
+        matrix = linear_interpolation_matrix if self.interpolation == "linear" else cubic_interpolation_matrix
+        self._to_pmf = [matrix(d, g) for d, g in zip(self.database_grids, self.grids, strict=True)]
+        self._to_pmf32 = [m.astype(np.float32) for m in self._to_pmf]
+
+    def _zoomed_range(self, axis: int, pmf: np.ndarray) -> tuple[float, float] | None:
+        """Where axis `axis` should be zoomed to from its posterior marginal `pmf`, or None to keep it."""
+        grid = self.grids[axis]
+        lo0, hi0 = self.prior_ranges[axis]
+        mean = float(grid @ pmf)
+        # a posterior narrower than a cell shows a std near 0 but lies within about ±Δ of its cell
+        half = max(_ZOOM_SIGMAS * float(np.sqrt(((grid - mean) ** 2) @ pmf)), 2.0 * (grid[1] - grid[0]))
+        if 2 * half > _ZOOM_WHEN * (grid[-1] - grid[0]):
+            return None
+        return max(lo0, mean - half), min(hi0, mean + half)
+
+    def _widened_range(self, axis: int, pmf: np.ndarray) -> tuple[float, float] | None:
+        """A range twice as wide around the posterior mean if it reaches an edge inside the prior range."""
+        grid = self.grids[axis]
+        lo0, hi0 = self.prior_ranges[axis]
+        if not ((pmf[0] > _EDGE_MASS and grid[0] > lo0) or (pmf[-1] > _EDGE_MASS and grid[-1] < hi0)):
+            return None
+        mean, width = float(grid @ pmf), grid[-1] - grid[0]
+        return max(lo0, min(grid[0], mean - width)), min(hi0, max(grid[-1], mean + width))
+
+    def _regrid(self, posterior: np.ndarray, widen_prior: bool = False) -> bool:
+        """Zoom each axis onto `posterior` (the current joint), or, with widen_prior, widen the axes where the
+        posterior reaches a zoomed edge and re-grid the prior (the current joint) onto them, so the update can
+        be made again. Axes given fresh marginals keep the prior range. Returns whether a grid changed."""
+        grids = list(self.grids)
+        log_joint = self._log(self.joint_)
+        changed = False
+        for axis, grid in enumerate(self.grids):
+            if axis in self._fresh_axes:
+                continue
+            marginal = self._marginal(posterior, axis)
+            new_range = self._widened_range(axis, marginal) if widen_prior else self._zoomed_range(axis, marginal)
+            if new_range is None:
+                continue
+            new = np.linspace(*new_range, grid.size)
+            log_joint = np.moveaxis(_log_interpolate(grid, np.moveaxis(log_joint, axis, -1), new), -1, axis)
+            grids[axis], changed = new, True
+        if changed:
+            log_joint -= log_joint.max()
+            joint = np.exp(log_joint)
+            self.joint_ = joint / joint.sum()
+            self._set_grids(grids)
+        return changed
+
     # ------------------------------------------------------------------ helpers
 
     def _axis(self, name: str) -> int:
@@ -541,6 +614,41 @@ class DBI:
     def _log(pmf: np.ndarray) -> np.ndarray:
         with np.errstate(divide="ignore"):
             return np.log(pmf)
+
+
+_EDGE_MASS = 1e-3  # a zoomed axis whose edge cell holds more posterior mass than this is widened
+_ZOOM_SIGMAS = 6.0  # a zoomed grid spans mean ± this many posterior STDs (at least ± 2 cells)
+_LOG_FLOOR = 60.0  # nats below the peak where the log-PMF is floored before it is re-gridded
+_MAX_WIDENINGS = 4  # times one update may widen its prior's grid and start again
+_ZOOM_WHEN = 0.5  # zoom only when the new grid is at most this fraction of the current one
+
+
+def auto_pmf_points(n_parameters: int, budget: int = 2_000_000, most: int = 40) -> int:
+    """Points per axis so the PMF grid holds at most `budget` cells (and at most `most` per axis, A2's 40)."""
+    k = int(np.floor(budget ** (1.0 / n_parameters) + 1e-9))
+    return max(3, min(most, k))
+
+
+def _log_interpolate(grid: np.ndarray, log_values: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Log-PMF values along the last axis at `points`: a not-a-knot cubic spline inside the grid (exact for a
+    Gaussian, whose log is quadratic; a linear one loses h²·curvature/8 nats between cells that a narrow
+    posterior undersamples). Beyond the grid, the parabola through the three edge cells (a Gaussian tail
+    continued; a convex one is taken as straight), capped at the edge value (no belief is invented).
+    Values more than 60 nats below the peak (e⁻⁶⁰ of the mass) are floored there so the spline does not ring."""
+    top = np.max(log_values)
+    floored = np.maximum(np.where(np.isfinite(log_values), log_values, -np.inf), top - _LOG_FLOOR)
+    inside = (points >= grid[0]) & (points <= grid[-1])
+    out = np.empty((*floored.shape[:-1], points.size))
+    out[..., inside] = np.minimum(CubicSpline(grid, floored, axis=-1)(points[inside]), top)
+    h = grid[1] - grid[0]
+    for beyond, side in ((points < grid[0], 1), (points > grid[-1], -1)):
+        if beyond.any():  # f(u) = f0 + a·u + ½c·u², u outward from the edge, fitted to the 3 edge cells
+            f0, f1, f2 = (floored[..., ::side][..., k, None] for k in range(3))
+            c = np.minimum((f0 - 2 * f1 + f2) / h**2, 0.0)  # log-concave tails only
+            a = (f0 - f1) / h + 0.5 * c * h
+            u = np.abs(points[beyond] - grid[0 if side == 1 else -1])
+            out[..., beyond] = np.minimum(f0 + a * u + 0.5 * c * u**2, f0)
+    return out
 
 
 def _quantile(grid: np.ndarray, pmf: np.ndarray, q: float) -> float:
