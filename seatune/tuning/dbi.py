@@ -69,8 +69,8 @@ from scipy.interpolate import CubicSpline
 
 from seatune.tuning.interface import ForwardModel, Observation, Parameter, Posterior, SeaState
 
-__all__ = ["DBI", "QUANTILES", "auto_pmf_points", "cubic_interpolation_matrix", "discretised_gaussian", "interpolate_tensor",
-           "linear_interpolation_matrix"]
+__all__ = ["DBI", "QUANTILES", "auto_pmf_points", "cubic_interpolation_matrix", "discretised_gaussian",
+           "interpolate_tensor", "linear_interpolation_matrix"]
 
 QUANTILES = (0.05, 0.5, 0.95)
 Likelihood = Literal["idw", "gaussian"]
@@ -206,7 +206,8 @@ class DBI:
     name = "dbi"
 
     def __init__(self, parameters: Sequence[Parameter], *, database_points: int | Sequence[int] = 7,
-                 pmf_points: int | Sequence[int] | Literal["auto"] = 40, likelihood: Likelihood = "gaussian", power: float = 0.4,
+                 pmf_points: int | Sequence[int] | Literal["auto"] = 40, likelihood: Likelihood = "gaussian",
+                 power: float = 0.4,
                  power_sea_state_dependent: float | None = None, screening_alpha: float = 0.05,
                  model_error: float = 0.0, hypothesis_mixing: Mixing = "joint", interpolation: Interpolation = "linear",
                  epsilon: float = 1e-9, pmf_budget: int = 2_000_000, regrid: bool = False):
