@@ -10,7 +10,7 @@ import click
 from seatune.cli.main import cli, handle_errors
 from seatune.io.atomic import remove_stale_temps
 
-ORDER = ("ingest", "windows", "filter", "identify", "tune", "diagnose", "report")
+ORDER = ("ingest", "windows", "filter", "sea", "identify", "tune", "diagnose", "report")
 
 
 def _line(stage: str, summary: dict, seconds: float) -> str:
@@ -30,6 +30,8 @@ def _line(stage: str, summary: dict, seconds: float) -> str:
     if stage == "windows":
         return (f"windows: {summary['accepted']} of {summary['candidates']} candidates accepted, "
                 f"{summary['accepted_minutes']:.0f} min free floating ({seconds:.0f} s)")
+    if stage == "sea":
+        return _sea_line(summary, seconds)
     if stage == "filter":
         return (f"filter: {summary['windows']} windows × {summary['channels']} channels, median cutoff "
                 f"{summary['median_cutoff_hz']:.2f} Hz ({seconds:.0f} s)")
@@ -38,6 +40,15 @@ def _line(stage: str, summary: dict, seconds: float) -> str:
                     for dof, om in summary["omega_n"].items()) or "none identified"
     return (f"identify: RAOs of {summary['channels']} channels in {summary['windows']} windows "
             f"({summary['low_confidence']} low-confidence); natural frequencies [rad/s]: {nat} ({seconds:.0f} s)")
+
+
+def _sea_line(s: dict, seconds: float) -> str:
+    if s.get("disabled"):
+        return "sea: not estimated (sea.estimate: false): every stage takes the hindcast's sea"
+    added = (f"; {s['added']} system(s) absent from the hindcast, Hs {', '.join(f'{h:.2f}' for h in s['added_hs'])} m"
+             if s["added"] else "; no system absent from the hindcast")
+    return (f"sea: estimated from the motions in {s['windows']} windows, {s['partitions']} partitions, Hs "
+            f"{s['hs_ratio']:.2f}× the hindcast's (median){added} ({seconds:.0f} s)")
 
 
 def _tune_line(summary: dict, seconds: float) -> str:
@@ -82,6 +93,7 @@ def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = (), progress=N
     from seatune.pipeline.identify import identify_stage
     from seatune.pipeline.ingest import ingest
     from seatune.pipeline.report import report_stage
+    from seatune.pipeline.sea import sea_stage
     from seatune.pipeline.tune import tune_stage
     from seatune.pipeline.vessel import open_vessel
     from seatune.pipeline.windows import windows_stage
@@ -97,6 +109,7 @@ def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = (), progress=N
     stages = {"ingest": lambda f: ingest(run, model, echo=click.echo, force=f),
               "windows": lambda f: windows_stage(run, echo=click.echo, force=f),
               "filter": lambda f: filter_stage(run, model, echo=click.echo, force=f),
+              "sea": lambda f: sea_stage(run, model, echo=click.echo, force=f),
               "identify": lambda f: identify_stage(run, model, echo=click.echo, force=f),
               "tune": lambda f: tune_stage(run, model, echo=click.echo, force=f),
               "diagnose": lambda f: diagnose_stage(run, model, echo=click.echo, force=f),
@@ -125,6 +138,8 @@ def _command(stage: str, doc: str):
 ingest = _command("ingest", "Logs + hindcast → motions.parquet, waves.parquet.")
 windows = _command("windows", "Free-floating, stationary windows → windows.parquet.")
 filter_ = _command("filter", "Adaptive lowpass cutoff, σ, Tz and Welch spectra per window → window_stats.parquet.")
+sea = _command("sea", "The directional sea of each window estimated from the motions, the hindcast as its "
+                      "prior → sea_states.parquet.")
 identify = _command("identify", "RAOs and natural frequencies → raos.parquet, natural_frequencies.parquet.")
 tune = _command("tune", "Loading parameters tuned window by window (DBI or UKF) → tuning_history.parquet, "
                         "tuned_vessel.yaml, validation.parquet.")

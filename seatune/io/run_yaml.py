@@ -68,6 +68,22 @@ class FilterSettings(Strict):
     channels: list[str] | None = None  # default: every vessel channel present in the motion table
 
 
+class SeaSettings(Strict):
+    """The sea of each window estimated from the motions (wave-buoy analogy), the hindcast as its prior."""
+
+    estimate: bool = True  # false: every stage takes the hindcast's sea as given
+    channels: list[str] | None = None  # default: the vessel's angle and translational channels in the motions
+    max_partitions: Annotated[int, Field(ge=1, le=3)] = 3  # wind sea + up to two swells
+    min_hs: PositiveFloat = 0.3  # an added partition (absent from the hindcast) must reach this Hs [m]
+    omega_min: PositiveFloat = 0.25  # fitted band [rad/s]
+    omega_max: PositiveFloat = 2.0
+    segment_s: PositiveFloat = 128.0  # Welch segment of the cross-spectra (Δω 0.05 rad/s, twice the filter's ν)
+    # prior widths of the hindcast's partitions, floors of hindcast.uncertainty (ERA5 vs buoys, Han A5 Table 4.1)
+    hs_rel_std: PositiveFloat = 0.25
+    tp_rel_std: PositiveFloat = 0.15
+    dir_std_deg: PositiveFloat = 30.0
+
+
 class IdentifySettings(Strict):
     band_fraction: Annotated[float, Field(gt=0, lt=1)] = 0.05  # energetic band: S_ζζ ≥ fraction·max (A7 §4.1)
     confidence: Annotated[float, Field(gt=0, lt=1)] = 0.95
@@ -208,6 +224,7 @@ class RunSpec(Strict):
     ingest: IngestSettings = IngestSettings()
     windows: WindowSettings = WindowSettings()
     filter: FilterSettings = FilterSettings()
+    sea: SeaSettings = SeaSettings()
     identify: IdentifySettings = IdentifySettings()
     tuning: TuningSettings = TuningSettings()
     predict: PredictSettings | None = None

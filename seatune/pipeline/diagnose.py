@@ -62,6 +62,9 @@ def window_set(run, vessel, channels):
     spectra = pd.read_parquet(run.artefact("window_spectra.parquet"))
     motions = pd.read_parquet(run.artefact("motions.parquet"), columns=["time", "lat", "lon"])
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
+    from seatune.pipeline.sea import read_sea_states
+
+    sea = read_sea_states(run)
     settings = run.spec.diagnose
     segment = run.spec.filter.welch_segment_s
     acc = windows[windows["accepted"]].sort_values("start")
@@ -88,7 +91,7 @@ def window_set(run, vessel, channels):
             nu.append(float(part["dof"].iloc[0]))
         mid = row.start + (row.end - row.start) / 2
         j = int(np.clip(motions["time"].searchsorted(mid), 0, len(motions) - 1))
-        S2d, dirs, _ = window_wave_spectrum(hc, row, motions["lat"].iloc[j], motions["lon"].iloc[j], fine)
+        S2d, dirs, _ = window_wave_spectrum(hc, row, motions["lat"].iloc[j], motions["lon"].iloc[j], fine, sea)
         ids.append(str(row.window_id))
         roles.append("holdout" if k and (i % k == k - 1) else "train")
         measured.append(m)
@@ -178,7 +181,9 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     settings = run.spec.diagnose
     src = [run.artefact(n) for n in ("windows.parquet", "window_stats.parquet", "window_spectra.parquet",
                                      "motions.parquet", "tuning_history.parquet")]
-    fp = fingerprint(src + [run.hindcast_path, run.vessel_path],
+    from seatune.pipeline.sea import sea_inputs
+
+    fp = fingerprint(src + sea_inputs(run) + [run.hindcast_path, run.vessel_path],
                      {"stage": "diagnose", "diagnose": settings.model_dump(),
                       "holdout_every": run.spec.tuning.holdout_every,
                       "uncertainty": run.spec.hindcast.uncertainty.model_dump()})

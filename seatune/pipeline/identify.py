@@ -57,9 +57,17 @@ def mode_channels(model, available) -> list[ModeChannel]:
     return out
 
 
-def window_wave_spectrum(hc, row, lat: float, lon: float, omega: np.ndarray):
-    """S(ω, D) [m²·s/rad²] on `omega` × the source's coming-from directions D [deg], and its source name."""
+def window_wave_spectrum(hc, row, lat: float, lon: float, omega: np.ndarray, sea=None):
+    """S(ω, D) [m²·s/rad²] on `omega` × the source's coming-from directions D [deg], and its source name: the
+    sea estimated from the motions when `sea` (sea_states.parquet) holds the window, else the hindcast's."""
     from seatune.io.hindcast_readers import spectrum_at
+
+    if sea is not None:
+        from seatune.pipeline.sea import estimated_wave_spectrum
+
+        found = estimated_wave_spectrum(sea, str(row.window_id), omega)
+        if found is not None:
+            return found
 
     mid = row.start + (row.end - row.start) / 2
     spec = spectrum_at(hc, mid.tz_convert("UTC").tz_localize(None), lat, lon) if hc.spectra is not None else None
@@ -148,7 +156,7 @@ def identify_window(model, prior, row, wave, dirs, source, spectra: pd.DataFrame
     omega = spectra[spectra["channel"] == names[0]]["omega"].to_numpy()
     s_wave = wave.sum(axis=1) * np.radians(np.diff(np.r_[dirs, dirs[0] + 360.0]).mean())
     h_model = effective_model_rao(model, prior, names, omega, dirs, wave, row.heading_deg)
-    wls = wave_log_std(omega, np.maximum(s_wave, 1e-300), uncertainty.hs_rel_std, uncertainty.tp_std_s / row.tp)
+    wls = wave_log_std(omega, np.maximum(s_wave, 1e-300), uncertainty.hs_rel_std, uncertainty.tp_std_s / uncertainty.tp)
     beta = mean_wave_direction(wave, dirs, row.heading_deg)
     estimates, rows = {}, []
     for j, name in enumerate(names):
@@ -163,7 +171,7 @@ def identify_window(model, prior, row, wave, dirs, source, spectra: pd.DataFrame
             "scope": "window", "window_id": str(row.window_id), "channel": name, "omega": omega,
             "rao_amp": est.amplitude, "ci_low": est.low, "ci_high": est.high, "model_prior": h_model[j],
             "low_confidence": bool(est.low_confidence), "reason": _reason(est), "beta_deg": beta,
-            "sector_deg": np.nan, "hs": row.hs, "hs_bin_m": np.nan, "n_windows": 1, "wave_source": source}))
+            "sector_deg": np.nan, "hs": uncertainty.hs, "hs_bin_m": np.nan, "n_windows": 1, "wave_source": source}))
     # the hindcast is common to every channel: when most channels see energy it lacks, the window is suspect
     flagged = [e for e, _ in estimates.values() if e.low_confidence]
     window_flag = len(flagged) >= 0.5 * len(estimates)
@@ -414,9 +422,11 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
     from seatune.io.parquet import write_table
     from seatune.io.rundir import fingerprint, is_fresh
     from seatune.physics.response import natural_frequencies
+    from seatune.pipeline.sea import read_sea_states, sea_inputs, window_uncertainty
 
     settings, uncertainty = run.spec.identify, run.spec.hindcast.uncertainty
-    src = [run.artefact("windows.parquet"), run.artefact("window_spectra.parquet"), run.artefact("motions.parquet")]
+    src = [run.artefact("windows.parquet"), run.artefact("window_spectra.parquet"), run.artefact("motions.parquet"),
+           *sea_inputs(run)]
     fp = fingerprint(src + [run.hindcast_path, run.vessel_path],
                      {"stage": "identify", "identify": settings.model_dump(), "uncertainty": uncertainty.model_dump()})
     out_r, out_n = run.artefact("raos.parquet"), run.artefact("natural_frequencies.parquet")
@@ -425,6 +435,7 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
     windows, spectra = pd.read_parquet(src[0]), pd.read_parquet(src[1])
     motions = pd.read_parquet(src[2])
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
+    sea = read_sea_states(run)
     prior = model.base_loading
     draft = float(load_draft(model, prior))
     modes = mode_channels(model, set(spectra["channel"].unique()))
@@ -434,20 +445,21 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
         k = int(np.clip(motions["time"].searchsorted(mid), 0, len(motions) - 1))
         spec_w = spectra[spectra["window_id"] == row.window_id]
         omega = spec_w[spec_w["channel"] == spec_w["channel"].iloc[0]]["omega"].to_numpy()
-        wave, dirs, source = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], omega)
+        wave, dirs, source = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], omega, sea)
+        unc = window_uncertainty(sea, row.window_id, uncertainty, row)
         estimates, rows, beta, window_flag = identify_window(model, prior, row, wave, dirs, source, spec_w, settings,
-                                                             uncertainty)
+                                                             unc)
         parts += rows
         s_wave = wave.sum(axis=1) * np.radians(np.diff(np.r_[dirs, dirs[0] + 360.0]).mean())
         in_window = (motions["time"] >= row.start) & (motions["time"] <= row.end) & (motions["record"] == row.record)
         per_window.append({"window_id": str(row.window_id), "estimates": estimates, "s_wave": s_wave, "omega": omega,
                            "wave": wave, "dirs": dirs, "heading": row.heading_deg, "draft": draft,
-                           "tp_rel_std": uncertainty.tp_std_s / row.tp,
+                           "tp_rel_std": unc.tp_std_s / unc.tp,
                            "low_confidence": window_flag,
                            "modes": mode_spectra(model, modes, spec_w, motions[in_window],
                                                  run.spec.filter.welch_segment_s),
                            "sector": sector_of(beta, settings.heading_sector_deg),
-                           "hs_bin": float(np.floor(row.hs / settings.hs_bin_m) * settings.hs_bin_m)})
+                           "hs_bin": float(np.floor(unc.hs / settings.hs_bin_m) * settings.hs_bin_m)})
     raos = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(RAO_UNITS))
     if per_window:
         raos = pd.concat([raos, *aggregate_rows(per_window, raos, settings)], ignore_index=True)

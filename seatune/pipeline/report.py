@@ -21,7 +21,8 @@ from seatune.errors import UserError
 
 REQUIRED = ("motions.parquet", "waves.parquet", "windows.parquet", "window_stats.parquet", "raos.parquet",
             "natural_frequencies.parquet")
-OPTIONAL = ("tuning_history.parquet", "validation.parquet", "tuned_vessel.yaml", "diagnosis.parquet",
+OPTIONAL = ("sea_states.parquet", "tuning_history.parquet", "validation.parquet", "tuned_vessel.yaml",
+            "diagnosis.parquet",
             "diagnosis_residuals.parquet",
             "prediction.parquet")
 TRACK_COLUMNS = ["time", "record", "lat", "lon", "sog", "heading_deg"]
@@ -54,6 +55,9 @@ def tuned_model_raos(run, vessel, loading, windows: pd.DataFrame, motions: pd.Da
     if agg.empty:
         return pd.DataFrame(columns=["window_id", "channel", "omega", "model_tuned"])
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
+    from seatune.pipeline.sea import read_sea_states
+
+    sea = read_sea_states(run)
     omega = np.sort(agg["omega"].unique())
     channels = list(dict.fromkeys(agg["channel"]))
     members = {w for key in agg["window_id"].unique() for w in str(key).split("+")}
@@ -61,7 +65,7 @@ def tuned_model_raos(run, vessel, loading, windows: pd.DataFrame, motions: pd.Da
     for row in windows[windows["window_id"].astype(str).isin(members)].itertuples():
         mid = row.start + (row.end - row.start) / 2
         k = int(np.clip(motions["time"].searchsorted(mid), 0, len(motions) - 1))
-        wave, dirs, _ = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], omega)
+        wave, dirs, _ = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], omega, sea)
         per_window[str(row.window_id)] = effective_model_rao(vessel, loading, channels, omega, dirs, wave,
                                                              row.heading_deg)  # (nch, nw)
     out = []

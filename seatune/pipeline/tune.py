@@ -137,9 +137,11 @@ def effective_dof(S: np.ndarray, omega: np.ndarray, duration_s: float) -> float:
     return float(duration_s * m0**2 / (np.pi * np.trapezoid(S**2, omega)))
 
 
-def window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, names):
-    """(window_id, ForwardModel, Observation, SeaState) per accepted window, in time order."""
+def window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, names, sea=None):
+    """(window_id, ForwardModel, Observation, SeaState) per accepted window, in time order; the sea is the
+    estimate of sea_states.parquet (`sea`) where it holds the window, else the hindcast's."""
     from seatune.pipeline.identify import mean_wave_direction, window_wave_spectrum
+    from seatune.pipeline.sea import window_uncertainty
     from seatune.tuning.forward import WindowStatistics
     from seatune.tuning.interface import Observation
 
@@ -151,11 +153,12 @@ def window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, name
         sp = spectra[spectra["window_id"] == row.window_id]
         mid = row.start + (row.end - row.start) / 2
         k = int(np.clip(motions["time"].searchsorted(mid), 0, len(motions) - 1))
-        wave, dirs, _ = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], db.omega)
+        wave, dirs, _ = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], db.omega, sea)
         d_dir = np.radians(np.diff(np.r_[dirs, dirs[0] + 360.0]).mean())
         hs0 = 4.0 * np.sqrt(np.trapezoid(wave.sum(axis=1) * d_dir, db.omega))
-        theta0 = np.array([hs0, row.tp, mean_wave_direction(wave, dirs, row.heading_deg)])
-        std = np.array([unc.hs_rel_std * hs0, unc.tp_std_s, unc.dir_std_deg])
+        ws = window_uncertainty(sea, row.window_id, unc, row)  # the estimated sea's, else the hindcast's
+        theta0 = np.array([hs0, ws.tp, mean_wave_direction(wave, dirs, row.heading_deg)])
+        std = np.array([ws.hs_rel_std * hs0, ws.tp_std_s, ws.dir_std_deg])
         cutoff = {c: 2 * np.pi * float(st.loc[c, "cutoff_hz"]) for c in st.index}
         model = WindowStatistics(power, names, wave, dirs, row.heading_deg, theta0, cutoff)
         z, var = [], []
@@ -224,9 +227,11 @@ def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
     from seatune.tuning.forward import ChannelPower
 
     settings = run.spec.tuning
+    from seatune.pipeline.sea import read_sea_states, sea_inputs
+
     src = [run.artefact(n) for n in ("windows.parquet", "window_stats.parquet", "window_spectra.parquet",
                                      "motions.parquet")]
-    fp = fingerprint(src + [run.hindcast_path, run.vessel_path],
+    fp = fingerprint(src + sea_inputs(run) + [run.hindcast_path, run.vessel_path],
                      {"stage": "tune", "tuning": settings.model_dump(),
                       "uncertainty": run.spec.hindcast.uncertainty.model_dump()})
     outs = [run.artefact(n) for n in ("tuning_history.parquet", "validation.parquet")]
@@ -255,7 +260,7 @@ def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
             raise UserError(str(run.path), f"tuning.heading_rules[{k}].channels",
                             f"not among the tuned channels: {', '.join(unknown)}")
     power = ChannelPower(vessel, [p.name for p in parameters], channels)
-    inputs = window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, names)
+    inputs = window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, names, read_sea_states(run))
     if not inputs:
         raise UserError(str(run.path), "windows", "no accepted window to tune on")
     k = settings.holdout_every

@@ -18,7 +18,7 @@ import yaml
 
 from seatune.errors import UserError
 
-ARTEFACTS = ("tuning_history", "validation", "natural_frequencies", "diagnosis")
+ARTEFACTS = ("tuning_history", "validation", "natural_frequencies", "diagnosis", "sea_states")
 
 
 def read_bank(bank: Path) -> list[tuple[str, Path]]:
@@ -64,10 +64,11 @@ def model_modes_at_truth(truth: dict, folder: Path, cache: dict) -> dict[str, fl
     return dict(zip(("heave", "roll", "pitch"), coupled_modes(vessel.db, loading).omega[0].tolist(), strict=True))
 
 
-def score_bank(bank: Path) -> pd.DataFrame:
-    from seatune.validation.score import score_trial
+def score_bank(bank: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(bank summary, per window × true partition sea scores)."""
+    from seatune.validation.score import score_trial, sea_rows
 
-    rows, cache = [], {}
+    rows, sea, cache = [], [], {}
     for _, folder in read_bank(bank):
         truth = read_truth(folder)
         rd = run_dir(folder)
@@ -76,7 +77,9 @@ def score_bank(bank: Path) -> pd.DataFrame:
         missing = [a for a in ("tuning_history", "natural_frequencies", "diagnosis") if arts[a] is None]
         status, message = ("ok", "") if not missing else ("failed", f"no {', '.join(missing)} in {rd}")
         rows.append(score_trial(truth, arts, model_modes_at_truth(truth, folder, cache), status, message))
-    return pd.DataFrame(rows)
+        windows = pd.read_parquet(rd / "windows.parquet") if (rd / "windows.parquet").is_file() else None
+        sea += sea_rows(truth, arts.get("sea_states"), windows)
+    return pd.DataFrame(rows), pd.DataFrame(sea)
 
 
 def main(argv=None) -> int:
@@ -90,7 +93,7 @@ def main(argv=None) -> int:
     try:
         from seatune.io.parquet import write_table
         from seatune.validation.page import write_page
-        from seatune.validation.score import bank_metrics, confusion, summary_units
+        from seatune.validation.score import bank_metrics, confusion, sea_metrics, summary_units
 
         read_bank(args.bank)
         if not args.no_run:  # the same code path as a fleet batch: `seatune batch` on Dask
@@ -101,14 +104,18 @@ def main(argv=None) -> int:
             done = subprocess.run(cmd)
             if done.returncode == 2:
                 return 2
-        summary = score_bank(args.bank)
-        metrics = bank_metrics(summary)
+        summary, sea = score_bank(args.bank)
+        metrics = pd.concat([bank_metrics(summary), sea_metrics(sea)], ignore_index=True)
         conf = confusion(summary)
         args.out.mkdir(parents=True, exist_ok=True)
         write_table(summary, args.out / "bank_summary.parquet", summary_units(summary.columns))
         write_table(metrics, args.out / "bank_metrics.parquet",
                     {"metric": "", "group": "", "value": "see metric", "n": "", "target": "see metric",
                      "passed": ""})
+        if not sea.empty:
+            write_table(sea, args.out / "sea_scores.parquet",
+                        {c: ("m" if c in ("truth_hs", "false_hs") else "s" if c == "truth_tp" else
+                             "deg" if c.endswith("deg") else "") for c in sea.columns})
         c = conf.reset_index()
         write_table(c, args.out / "confusion.parquet", {k: "" for k in c.columns})
         page = write_page(args.out / "index.html", summary, metrics, conf)

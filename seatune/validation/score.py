@@ -105,6 +105,100 @@ def score_trial(truth: dict, artefacts: dict[str, pd.DataFrame | None], model_mo
     return row
 
 
+def _angle(a, b) -> float:
+    return float(abs((a - b + 180.0) % 360.0 - 180.0))
+
+
+def match_windows(truth_windows: list[dict], windows: pd.DataFrame) -> dict[str, dict]:
+    """{seatune window_id: the truth window it overlaps most} for the accepted windows."""
+    out = {}
+    starts = [pd.Timestamp(w["start"]) for w in truth_windows]
+    ends = [pd.Timestamp(w["end"]) for w in truth_windows]
+    for r in windows[windows["accepted"]].itertuples():
+        overlap = [min(e, r.end) - max(s, r.start) for s, e in zip(starts, ends, strict=True)]
+        k = int(np.argmax(overlap))
+        if overlap[k] > pd.Timedelta(0):
+            out[str(r.window_id)] = truth_windows[k]
+    return out
+
+
+def sea_rows(truth: dict, sea: pd.DataFrame | None, windows: pd.DataFrame | None) -> list[dict]:
+    """Per window and true partition: found (an estimated wave system within 30 % in Tp and 45° in direction,
+    each system used once, nearest first), the estimate's errors and the hindcast's; plus one row per estimated
+    system absent from the hindcast that matches no true partition (a false system)."""
+    from seatune.pipeline.sea import system_table
+
+    if sea is None or windows is None or sea.empty:
+        return []
+    systems = system_table(sea)
+    rows = []
+    for wid, tw in match_windows(truth.get("windows") or [], windows).items():
+        est = systems[systems["window_id"] == wid].reset_index(drop=True)
+        parts = tw.get("partitions") or []
+        pairs = []
+        for i, p in enumerate(parts):
+            for j, e in est.iterrows():
+                dtp = abs(e["tp"] - p["tp"]) / p["tp"]
+                ddir = _angle(e["dir_from_deg"], p["dir_from_deg"])
+                if dtp < 0.3 and ddir < 45.0:
+                    pairs.append((dtp / 0.3 + ddir / 45.0, i, j))
+        match, used = {}, set()
+        for _, i, j in sorted(pairs):
+            if i not in match and j not in used:
+                match[i] = j
+                used.add(j)
+        for i, p in enumerate(parts):
+            e = est.loc[match[i]] if i in match else None
+            hc_hs = float(e["hindcast_hs"]) if e is not None else np.nan
+            rows.append({"trial": truth["trial"], "window_id": wid, "kind": p["kind"], "truth_hs": p["hs"],
+                         "truth_tp": p["tp"], "truth_dir_from_deg": p["dir_from_deg"],
+                         "in_hindcast": bool(p.get("in_hindcast", True)), "found": e is not None,
+                         "hs_rel_error": float(e["hs"] / p["hs"] - 1) if e is not None else np.nan,
+                         "tp_rel_error": float(e["tp"] / p["tp"] - 1) if e is not None else np.nan,
+                         "dir_error_deg": _angle(e["dir_from_deg"], p["dir_from_deg"]) if e is not None else np.nan,
+                         "hindcast_hs_rel_error": hc_hs / p["hs"] - 1 if np.isfinite(hc_hs) else np.nan,
+                         "false_system": False})
+        for j, e in est.iterrows():
+            if j not in used and not bool(e["in_hindcast"]):
+                rows.append({"trial": truth["trial"], "window_id": wid, "kind": "false", "truth_hs": np.nan,
+                             "truth_tp": np.nan, "truth_dir_from_deg": np.nan, "in_hindcast": False, "found": False,
+                             "hs_rel_error": np.nan, "tp_rel_error": np.nan, "dir_error_deg": np.nan,
+                             "hindcast_hs_rel_error": np.nan, "false_system": True, "false_hs": float(e["hs"])})
+    return rows
+
+
+def sea_metrics(sea: pd.DataFrame) -> pd.DataFrame:
+    """Issue 16's sea figures over the bank's windows."""
+    out = []
+
+    def add(metric, group, value, n, target=None):
+        out.append({"metric": metric, "group": group, "value": value, "n": n, "target": target,
+                    "passed": None if target is None or not np.isfinite(value) else bool(value >= target)})
+
+    if sea.empty:
+        return pd.DataFrame(out, columns=["metric", "group", "value", "n", "target", "passed"])
+    parts = sea[~sea["false_system"]]
+    missing = parts[~parts["in_hindcast"] & (parts["truth_hs"] >= 0.5)]
+    add("sea_missing_found_rate", "swell absent from the hindcast, Hs >= 0.5 m", *_rate(missing["found"]), 0.90)
+    found = missing[missing["found"]]
+    add("sea_missing_hs_within_15pct", "found", *_rate(found["hs_rel_error"].abs() <= 0.15), 0.90)
+    add("sea_missing_tp_within_10pct", "found", *_rate(found["tp_rel_error"].abs() <= 0.10), 0.90)
+    add("sea_missing_dir_within_15deg", "found", *_rate(found["dir_error_deg"] <= 15.0), 0.90)
+    wind = parts[parts["kind"] == "wind_sea"]
+    add("sea_wind_found_rate", "wind sea", *_rate(wind["found"]))
+    add("sea_wind_hs_within_10pct", "wind sea", *_rate(wind["found"] & (wind["hs_rel_error"].abs() <= 0.10)), 0.80)
+    better = wind["found"] & ~(wind["hs_rel_error"].abs() > wind["hindcast_hs_rel_error"].abs().fillna(np.inf))
+    add("sea_wind_hs_better_than_hindcast", "wind sea", *_rate(better), 0.80)
+    swell = parts[parts["kind"].str.startswith("swell") & parts["in_hindcast"]]
+    add("sea_swell_found_rate", "swell in the hindcast", *_rate(swell["found"]))
+    fs = swell[swell["found"]]
+    add("sea_swell_hs_within_15pct", "swell in the hindcast", *_rate(fs["hs_rel_error"].abs() <= 0.15))
+    n_windows = sea["window_id"].astype(str).str.cat(sea["trial"], sep="@").nunique()
+    add("sea_false_systems_per_window", "systems absent from the hindcast matching no true one",
+        float(sea["false_system"].sum()) / max(n_windows, 1), n_windows)
+    return pd.DataFrame(out)
+
+
 def summary_units(columns) -> dict[str, str]:
     units = {}
     for c in columns:

@@ -1,0 +1,328 @@
+"""The directional sea of one window from the ship's own motions (the wave-buoy analogy). Pure computation.
+
+The measured cross-spectral matrix Φ̂(ω) of the motion channels is matched by the model
+
+    Φ(ω) = Σ_D H(ω, β_D) H(ω, β_D)ᴴ S(ω, D) ΔD                        (DESIGN §4; Nielsen 2006 eq. 3)
+
+with H the channel RAOs of the current loading and S a parametric sea of up to three partitions (JONSWAP in
+ω, cos-2s in direction; each Hs, Tp, coming-from direction, spread, γ). The hindcast is the prior of the
+partitions it holds; partitions it lacks are searched for and kept when the data ask for them.
+
+Choices (Nielsen's Bayesian wave-buoy analogy and the NetSSE spectral-residual method fit the same equation;
+neither fixes these):
+* Residuals: log autospectra (sampling variance 2/ν of a χ²_ν estimate, the Welch degrees of freedom ν) and
+  the real and imaginary parts of the complex coherency Φ_ij/√(Φ_ii Φ_jj) (variance (1 − |γ|²)²/ν + …,
+  Bendat & Piersol eq. 9.52) — phases carry direction, and coherency does not depend on the RAO's level.
+* RAO uncertainty: the model's spread of each residual over the prior design loadings (the loading prior's
+  mean and ±√3σ per parameter) is added to its variance, so a roll autospectrum near an uncertain roll
+  resonance cannot decide the sea. A floor (1 % of the channel's peak) keeps noise-only bins from steering.
+* Fit: maximum a posteriori by Gauss–Newton (scipy least_squares) with the hindcast partitions as Gaussian
+  priors (log Hs, log Tp, direction, log spread, log γ); covariance (JᵀJ)⁻¹ scaled by the reduced χ² when
+  the fit is worse than the noise model (model error the variance did not hold).
+* Missing partitions: a grid over (Tp, direction) of an added partition, its best cells refined; it is kept
+  when 2Δcost exceeds BIC's k·ln n (n residuals / 2 for the correlation of adjacent Welch bins) and its
+  Hs ≥ `min_hs`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import optimize, signal
+
+TWO_PI = 2.0 * np.pi
+_DEBUG = False
+FIELDS = ("hs", "tp", "dir_from_deg", "spread_deg", "gamma")
+_OMEGA_NORM = np.geomspace(0.05, 8.0, 240)  # where each partition's shape is normalised to m0 = Hs²/16
+
+
+@dataclass(frozen=True)
+class PartitionPrior:
+    """A Gaussian prior of one partition in the fitted coordinates (log Hs, log Tp, direction, log spread, log γ);
+    an infinite std leaves that coordinate free."""
+
+    hs: float
+    tp: float
+    dir_from_deg: float
+    spread_deg: float = 25.0
+    gamma: float = 3.3
+    hs_log_std: float = 0.25
+    tp_log_std: float = 0.15
+    dir_std_deg: float = 30.0
+    spread_log_std: float = 0.5
+    gamma_log_std: float = 0.5
+    in_hindcast: bool = True
+
+    def mean(self) -> np.ndarray:
+        return np.array([np.log(self.hs), np.log(self.tp), self.dir_from_deg, np.log(self.spread_deg),
+                         np.log(self.gamma)])
+
+    def std(self) -> np.ndarray:
+        return np.array([self.hs_log_std, self.tp_log_std, self.dir_std_deg, self.spread_log_std,
+                         self.gamma_log_std])
+
+
+@dataclass(frozen=True)
+class Partition:
+    """An estimated partition: values and standard deviations of (hs [m], tp [s], dir_from_deg, spread_deg,
+    gamma), and the prior it came from (None: absent from the hindcast)."""
+
+    value: dict
+    std: dict
+    prior: PartitionPrior | None
+
+
+@dataclass(frozen=True)
+class SeaEstimate:
+    partitions: list[Partition]
+    systems: list[int]  # per partition, the wave system it belongs to (see wave_systems)
+    chi2_reduced: float
+    n_residuals: int
+    cost_hindcast: float  # ½Σr² of the hindcast sea itself (the prior means), for the residual check
+    cost: float
+    channel_ratio: dict = field(default_factory=dict)  # per channel: measured / model response variance
+
+    @property
+    def hs_total(self) -> float:
+        return float(np.sqrt(sum(p.value["hs"] ** 2 for p in self.partitions)))
+
+
+# ------------------------------------------------------------------------- measured cross-spectra
+
+
+def cross_spectra(x: np.ndarray, fs: float, segment_s: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """Welch cross-spectral matrix of the channels in x (nch, n): ω [rad/s], Φ̂ (nω, nch, nch) one-sided in
+    rad/s (DESIGN §3), and its degrees of freedom ν (Welch 1967, Hann window with 50 % overlap)."""
+    nper = int(min(round(segment_s * fs), x.shape[1]))
+    f, p = signal.csd(x[:, None, :], x[None, :, :], fs=fs, window="hann", nperseg=nper, noverlap=nper // 2,
+                      detrend="linear", axis=-1)  # scipy's conj(X_i)X_j is H_i H̄_j S for x = Re{X e^{−iωt}}
+    segments = max(1, (x.shape[1] - nper) // (nper - nper // 2) + 1)
+    nu = 2.0 * segments / (1.0 + 2.0 * 0.167**2 * (segments - 1) / segments)  # Hann 50 %: ρ = 0.167
+    return TWO_PI * f, np.moveaxis(p, -1, 0) / TWO_PI, float(nu)
+
+
+# ------------------------------------------------------------------------- parametric sea
+
+
+def partition_spectrum(omega: np.ndarray, dirs_from_deg: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """S(ω, D) [m²·s/rad²] of partitions x (P, 5) in fitted coordinates on ω × coming-from directions D.
+
+    JONSWAP (σa 0.07, σb 0.09) normalised numerically to Hs²/16; cos-2s spreading with s = 2/σθ² − 1 (Kuik et al.
+    1988), normalised on the discrete direction grid."""
+    hs, tp = np.exp(x[:, 0]), np.exp(x[:, 1])
+    spread, gamma = np.radians(np.exp(x[:, 3])), np.exp(x[:, 4])
+
+    def shape(om):
+        wp = TWO_PI / tp[:, None]
+        r = np.where(om[None, :] <= wp, 0.07, 0.09)
+        pm = np.where(om > 0, om, 1.0)[None, :] ** -5.0 * np.exp(-1.25 * (wp / np.maximum(om, 1e-9)[None, :]) ** 4)
+        return pm * gamma[:, None] ** np.exp(-((om[None, :] - wp) ** 2) / (2 * r**2 * wp**2))
+
+    m0 = np.trapezoid(shape(_OMEGA_NORM), _OMEGA_NORM, axis=1)
+    s1 = shape(omega) * (hs**2 / 16.0 / m0)[:, None]  # (P, nω)
+    s = np.maximum(2.0 / spread**2 - 1.0, 0.0)
+    theta = np.radians(dirs_from_deg[None, :] - x[:, 2:3])
+    d = np.clip(np.cos(0.5 * theta), 0.0, None) ** (2.0 * s[:, None])  # cos-2s, unnormalised
+    d_dir = TWO_PI / dirs_from_deg.size
+    d /= d.sum(axis=1, keepdims=True) * d_dir
+    return np.einsum("pw,pd->wd", s1, d)
+
+
+def outer_raos(h: np.ndarray) -> np.ndarray:
+    """H Hᴴ per (ω, D): (…, nω, nD, nch, nch) from h (…, nω, nD, nch)."""
+    return h[..., :, None] * np.conj(h[..., None, :])
+
+
+def model_cross_spectra(g: np.ndarray, wave: np.ndarray) -> np.ndarray:
+    """Φ(ω) = Σ_D H Hᴴ S ΔD from g = outer_raos(H) (nω, nD, nch, nch) and wave (nω, nD)."""
+    nw, nd, nch, _ = g.shape
+    d_dir = TWO_PI / nd
+    return (wave[:, None, :].astype(g.dtype) @ g.reshape(nw, nd, nch * nch)).reshape(nw, nch, nch) * d_dir
+
+
+# ------------------------------------------------------------------------- fit
+
+
+@dataclass
+class _Problem:
+    omega: np.ndarray
+    dirs: np.ndarray
+    g: np.ndarray  # (nω, nD, nch, nch) H Hᴴ of the current loading
+    log_auto: np.ndarray  # (nω, nch) measured log(Φ̂_jj + floor)
+    coh: np.ndarray  # (nω, npair) measured coherency
+    floor: np.ndarray  # (nch,)
+    auto_std: np.ndarray  # (nω, nch)
+    coh_std: np.ndarray  # (nω, npair)
+    pairs: tuple[np.ndarray, np.ndarray]
+
+    def statistics(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        auto = np.real(np.einsum("wjj->wj", phi)) + self.floor
+        i, j = self.pairs
+        return np.log(auto), phi[:, i, j] / np.sqrt(auto[:, i] * auto[:, j])
+
+    def residuals(self, x_flat: np.ndarray, priors: list[PartitionPrior | None]) -> np.ndarray:
+        x = x_flat.reshape(-1, 5)
+        log_auto, coh = self.statistics(model_cross_spectra(self.g, partition_spectrum(self.omega, self.dirs, x)))
+        r = [((self.log_auto - log_auto) / self.auto_std).ravel(), ((self.coh.real - coh.real) / self.coh_std).ravel(),
+             ((self.coh.imag - coh.imag) / self.coh_std).ravel()]
+        for xp, prior in zip(x, priors, strict=True):
+            mean, std = (prior.mean(), prior.std()) if prior is not None else (_FREE_MEAN, _FREE_STD)
+            d = xp - mean
+            d[2] = (d[2] + 180.0) % 360.0 - 180.0
+            r.append(np.where(np.isfinite(std), d / std, 0.0))
+        return np.concatenate(r)
+
+    @property
+    def n_data(self) -> int:
+        return self.log_auto.size + 2 * self.coh.size
+
+
+# a partition the hindcast lacks: weak priors (Hs ~ 0.5 m × e^±1.5, Tp ~ 12 s × e^±0.4), direction free
+_FREE_MEAN = np.array([np.log(0.5), np.log(12.0), 0.0, np.log(20.0), np.log(3.3)])
+_FREE_STD = np.array([1.5, 0.4, np.inf, 0.5, 0.5])
+_LOWER = np.array([np.log(0.02), np.log(3.0), -np.inf, np.log(4.0), np.log(1.0)])
+_UPPER = np.array([np.log(15.0), np.log(25.0), np.inf, np.log(80.0), np.log(7.0)])
+
+
+def _fit(problem: _Problem, x0: np.ndarray, priors) -> optimize.OptimizeResult:
+    lo, hi = np.tile(_LOWER, len(priors)), np.tile(_UPPER, len(priors))
+    x0 = np.clip(x0.ravel(), lo + 1e-9, hi - 1e-9)
+    return optimize.least_squares(problem.residuals, x0, args=(priors,), bounds=(lo, hi), x_scale="jac",
+                                  method="trf", max_nfev=25 * x0.size, xtol=1e-5, ftol=1e-6)
+
+
+def _search_added(problem: _Problem, x: np.ndarray, priors, min_hs: float) -> tuple[np.ndarray, list]:
+    """Best added partition over a (Tp, direction, Hs) grid with the others fixed, as a starting point."""
+    best = None
+    for tp in (5.0, 7.0, 9.5, 12.0, 15.0, 19.0):
+        for d in np.arange(0.0, 360.0, 30.0):
+            for hs in (max(min_hs, 0.3), 1.0):
+                cand = np.vstack([x, [np.log(hs), np.log(tp), d, np.log(20.0), np.log(3.3)]])
+                c = 0.5 * np.sum(problem.residuals(cand.ravel(), [*priors, None]) ** 2)
+                if best is None or c < best[0]:
+                    best = (c, cand)
+    return best[1], [*priors, None]
+
+
+def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_from_deg: np.ndarray,
+                 h: np.ndarray, h_design: np.ndarray, priors: list[PartitionPrior], *, max_partitions: int = 3,
+                 min_hs: float = 0.3, channel_names=()) -> SeaEstimate:
+    """MAP directional sea of one window.
+
+    omega : (nω,) the band to fit [rad/s]; phi_measured : (nω, nch, nch) Φ̂ on it; nu : its degrees of freedom
+    dirs_from_deg : (nD,) equally spaced coming-from directions; h : (nω, nD, nch) RAOs of the current loading
+    there; h_design : (L, nω, nD, nch) RAOs of the loading prior's design points (RAO uncertainty)
+    priors : the hindcast's partitions (at least one)
+    """
+    nch = phi_measured.shape[1]
+    floor = 0.01 * np.real(np.einsum("wjj->wj", phi_measured)).max(axis=0)
+    pairs = np.triu_indices(nch, 1)
+    auto_m = np.real(np.einsum("wjj->wj", phi_measured)) + floor
+    coh_m = phi_measured[:, pairs[0], pairs[1]] / np.sqrt(auto_m[:, pairs[0]] * auto_m[:, pairs[1]])
+    # RAO uncertainty: spread over the design loadings of the modelled statistics in the hindcast's sea
+    x_prior = np.array([p.mean() for p in priors])
+    wave0 = partition_spectrum(omega, dirs_from_deg, x_prior)
+    g = outer_raos(h)
+    base = _Problem(omega, dirs_from_deg, g, np.log(auto_m), coh_m, floor, np.ones_like(auto_m),
+                    np.ones(coh_m.shape), pairs)
+    stats = [base.statistics(model_cross_spectra(outer_raos(hd), wave0)) for hd in h_design]
+    la = np.array([s[0] for s in stats])
+    ch = np.array([s[1] for s in stats])
+    auto_std = np.sqrt(2.0 / nu + la.std(axis=0) ** 2 + 0.1**2)
+    coh_std = np.sqrt((1.0 - np.abs(coh_m) ** 2) ** 2 / nu + 0.5 / nu + ch.real.std(axis=0) ** 2
+                      + ch.imag.std(axis=0) ** 2 + 0.05**2)
+    problem = _Problem(omega, dirs_from_deg, g, np.log(auto_m), coh_m, floor, auto_std, coh_std, pairs)
+
+    cost_hindcast = 0.5 * float(np.sum(problem.residuals(x_prior.ravel(), list(priors)) ** 2))
+    fit = _fit(problem, x_prior, list(priors))
+    x, used = fit.x.reshape(-1, 5), list(priors)
+    n_eff = problem.n_data / 2.0  # adjacent Welch bins of a Hann window are correlated
+    while len(used) < max_partitions:
+        start, cand_priors = _search_added(problem, x, used, min_hs)
+        trial = _fit(problem, start, cand_priors)
+        gain = 2.0 * (fit.cost - trial.cost)
+        hs_new = float(np.exp(trial.x.reshape(-1, 5)[-1, 0]))
+        if _DEBUG:
+            print(f"    add? gain {gain:.1f} thr {5 * np.log(n_eff):.1f} cost {fit.cost:.1f} hs {hs_new:.2f}",
+                  np.round(trial.x.reshape(-1, 5)[-1], 2))
+        if gain <= 5 * np.log(n_eff) or hs_new < min_hs or _shape_correction(trial.x.reshape(-1, 5)):
+            break
+        fit, x, used = trial, trial.x.reshape(-1, 5), cand_priors
+    dof = max(problem.n_data - x.size, 1)
+    chi2 = 2.0 * fit.cost / dof
+    try:
+        cov = np.linalg.pinv(fit.jac.T @ fit.jac) * max(1.0, chi2)
+    except np.linalg.LinAlgError:
+        cov = np.full((x.size, x.size), np.nan)
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None)).reshape(-1, 5)
+    parts = []
+    for xp, sp in zip(x, sd, strict=True):
+        value = {"hs": float(np.exp(xp[0])), "tp": float(np.exp(xp[1])), "dir_from_deg": float(xp[2] % 360.0),
+                 "spread_deg": float(np.exp(xp[3])), "gamma": float(np.exp(xp[4]))}
+        std = {"hs": value["hs"] * float(sp[0]), "tp": value["tp"] * float(sp[1]), "dir_from_deg": float(sp[2]),
+               "spread_deg": value["spread_deg"] * float(sp[3]), "gamma": value["gamma"] * float(sp[4])}
+        parts.append(Partition(value, std, None))
+    phi_fit = model_cross_spectra(g, partition_spectrum(omega, dirs_from_deg, x))
+    var_m = np.trapezoid(np.real(np.einsum("wjj->wj", phi_measured)), omega, axis=0)
+    var_f = np.trapezoid(np.real(np.einsum("wjj->wj", phi_fit)), omega, axis=0)
+    ratio = dict(zip(channel_names, (var_m / np.maximum(var_f, 1e-300)).tolist(), strict=False))
+    systems = wave_systems(parts)
+    parts = [Partition(p.value, p.std, m) for p, m in zip(parts, match_hindcast(parts, systems, list(priors)),
+                                                          strict=True)]
+    return SeaEstimate(parts, systems, float(chi2), problem.n_data, cost_hindcast, float(fit.cost),
+                       ratio)
+
+
+def _shape_correction(x: np.ndarray, tp_rel: float = 0.25, hs_share: float = 0.7) -> bool:
+    """An added partition (last row) at the period of another is a correction of that one's frequency or
+    directional shape (an Ochi–Hubble or wrapped-normal sea fitted by JONSWAP × cos-2s), not a new system, when
+    it is weaker or within the two spreads in direction: a weak crossing sea at the same period is not told
+    apart from a spreading error by three motions."""
+    hs, tp, spread = np.exp(x[:, 0]), np.exp(x[:, 1]), np.exp(x[:, 3])
+    near = np.abs(tp[:-1] - tp[-1]) / tp[:-1] < tp_rel
+    ddir = np.abs((x[:-1, 2] - x[-1, 2] + 180.0) % 360.0 - 180.0)
+    close = ddir < np.maximum(60.0, spread[:-1] + spread[-1])
+    return bool(np.any(near & ((hs[-1] < hs_share * hs[:-1]) | close)))
+
+
+def match_hindcast(parts: list[Partition], systems: list[int], priors: list[PartitionPrior],
+                   tp_rel: float = 0.3, dir_deg: float = 60.0) -> list[PartitionPrior | None]:
+    """The hindcast partition each wave system corresponds to (nearest in Tp and direction within the limits,
+    each prior used once), whatever slot of the fit it grew from: per partition, that prior or None."""
+    energy: dict[int, list[float]] = {}
+    for p, s in zip(parts, systems, strict=True):
+        energy.setdefault(s, []).append(p.value["hs"])
+    main = {s: max((p for p, t in zip(parts, systems, strict=True) if t == s), key=lambda p: p.value["hs"])
+            for s in energy}
+    pairs = []
+    for s, p in main.items():
+        for k, pr in enumerate(priors):
+            dtp = abs(p.value["tp"] - pr.tp) / pr.tp
+            ddir = abs((p.value["dir_from_deg"] - pr.dir_from_deg + 180.0) % 360.0 - 180.0)
+            if dtp < tp_rel and ddir < dir_deg:
+                pairs.append((dtp / tp_rel + ddir / dir_deg, s, k))
+    taken_s, taken_k, match = set(), set(), {}
+    for _, s, k in sorted(pairs):
+        if s not in taken_s and k not in taken_k:
+            match[s] = priors[k]
+            taken_s.add(s)
+            taken_k.add(k)
+    return [match.get(s) for s in systems]
+
+
+def wave_systems(parts: list[Partition], tp_rel: float = 0.3, dir_deg: float = 60.0) -> list[int]:
+    """Partitions closer than `tp_rel` in Tp and `dir_deg` (or their two spreads) in direction are one wave
+    system (one peak fitted by two shapes, e.g. a broad swell by two JONSWAPs; the peak-separation rule of
+    Hanson & Phillips 2001 §3 in its simplest form). Returns a system index per partition."""
+    system = list(range(len(parts)))
+    for a in range(len(parts)):
+        for b in range(a + 1, len(parts)):
+            va, vb = parts[a].value, parts[b].value
+            dtp = abs(va["tp"] - vb["tp"]) / (0.5 * (va["tp"] + vb["tp"]))
+            ddir = abs((va["dir_from_deg"] - vb["dir_from_deg"] + 180.0) % 360.0 - 180.0)
+            if dtp < tp_rel and ddir < max(dir_deg, va["spread_deg"] + vb["spread_deg"]):
+                old, new = system[b], system[a]
+                system = [new if s == old else s for s in system]
+    order = {s: k for k, s in enumerate(dict.fromkeys(system))}
+    return [order[s] for s in system]

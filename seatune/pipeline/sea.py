@@ -1,0 +1,374 @@
+"""`seatune sea`: each accepted window's directional sea estimated from the ship's motions, with the hindcast
+as the prior (physics/sea_estimation.py), → sea_states.parquet. identify, tune, diagnose and report then take
+the window's wave spectrum and its uncertainty from the estimate instead of the hindcast.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+SEA_UNITS = {
+    "window_id": "",
+    "partition": "",
+    "system": "",
+    "kind": "",
+    "in_hindcast": "",
+    "hindcast_total_hs": "m",
+    "hindcast_hs": "m",
+    "hindcast_tp": "s",
+    "hindcast_dir_from_deg": "deg",
+    "hs": "m",
+    "hs_std": "m",
+    "tp": "s",
+    "tp_std": "s",
+    "dir_from_deg": "deg",
+    "dir_from_deg_std": "deg",
+    "spread_deg": "deg",
+    "spread_deg_std": "deg",
+    "gamma": "",
+    "gamma_std": "",
+    "heading_deg": "deg",
+    "chi2_reduced": "",
+    "hindcast_misfit": "",
+    "fitted_misfit": "",
+    "channels": "",
+}
+DIRS_FROM = np.arange(72) * 5.0  # the estimate's direction grid [deg, coming-from]
+_MEASURED_KINDS = ("angle", "specific_force", "acceleration", "displacement", "velocity")
+
+
+def sea_channels(model, available) -> list[str]:
+    """Roll, pitch and the vertical translations (rates repeat the angles; horizontal specific forces add surge
+    and sway, which the linear model holds worst: on the OSV bank trials they biased Hs by +10 %)."""
+    return [
+        c.name
+        for c in model.channels
+        if c.name in available and c.kind in _MEASURED_KINDS and (c.kind == "angle" or c.axis == "z")
+    ]
+
+
+def spectrum_partitions(S2d: np.ndarray, omega: np.ndarray, dirs_from: np.ndarray, max_parts: int = 2):
+    """Up to `max_parts` partitions (hs, tp, dir_from_deg, spread_deg) of a 2-D spectrum, split in frequency at
+    the trough between the largest peaks of its 1-D spectrum (a hindcast's swell and wind sea)."""
+    from scipy.signal import find_peaks
+
+    d_dir = np.radians(360.0 / dirs_from.size)
+    e = S2d.sum(axis=1) * d_dir
+    if not np.any(e > 0):
+        return []
+    peaks, prop = find_peaks(np.r_[0.0, e, 0.0], prominence=0.1 * e.max())
+    peaks = peaks - 1
+    peaks = np.sort(peaks[np.argsort(prop["prominences"])[::-1][:max_parts]])
+    edges = [0] + [int(a + np.argmin(e[a : b + 1])) for a, b in zip(peaks[:-1], peaks[1:], strict=True)] + [e.size]
+    out = []
+    for a, b, p in zip(edges[:-1], edges[1:], peaks, strict=True):
+        m0 = np.trapezoid(e[a:b], omega[a:b]) if b - a > 1 else 0.0
+        if m0 <= 0:
+            continue
+        w = S2d[a:b].sum(axis=0)
+        th = np.radians(dirs_from)
+        c, s = (w * np.cos(th)).sum() / w.sum(), (w * np.sin(th)).sum() / w.sum()
+        spread = np.degrees(np.sqrt(max(2.0 * (1.0 - np.hypot(c, s)), 1e-4)))
+        out.append(
+            (
+                4.0 * np.sqrt(m0),
+                2 * np.pi / omega[p],
+                float(np.degrees(np.arctan2(s, c)) % 360.0),
+                float(np.clip(spread, 5.0, 70.0)),
+            )
+        )
+    return out
+
+
+def hindcast_priors(hc, row, lat, lon, unc, settings):
+    """The window's hindcast partitions as PartitionPriors (2-D spectrum: split at the trough; partitions
+    wind_*/swell_*; else the bulk Hs/Tp/direction as one partition)."""
+    from seatune.io.hindcast_readers import at_track
+    from seatune.physics.sea_estimation import PartitionPrior
+    from seatune.pipeline.identify import window_wave_spectrum
+
+    def prior(hs, tp, d, spread=25.0):
+        return PartitionPrior(
+            hs=max(float(hs), 0.05),
+            tp=float(tp),
+            dir_from_deg=float(d),
+            spread_deg=spread,
+            hs_log_std=max(unc.hs_rel_std, settings.hs_rel_std),
+            tp_log_std=max(unc.tp_std_s / float(tp), settings.tp_rel_std),
+            dir_std_deg=max(unc.dir_std_deg, settings.dir_std_deg),
+        )
+
+    if hc.spectra is not None:
+        omega = np.linspace(0.15, 2.5, 200)
+        S2d, dirs, _ = window_wave_spectrum(hc, row, lat, lon, omega)
+        parts = spectrum_partitions(S2d, omega, np.asarray(dirs, dtype=float))
+        if parts:
+            return [prior(*p) for p in parts]
+    mid = row.start + (row.end - row.start) / 2
+    track = at_track(hc, [mid], lat, lon).iloc[0]
+    parts = []
+    for name in ("wind", "swell"):
+        hs, d = track.get(f"{name}_hs"), track.get(f"{name}_dir_from_deg")
+        tp = track.get(f"{name}_tp", np.nan)
+        if not np.isfinite(tp if tp is not None else np.nan):
+            mwp = track.get(f"{name}_mwp", np.nan)
+            tp = 1.1 * mwp if mwp is not None and np.isfinite(mwp) else np.nan  # Tm−1,0 ≈ 0.9 Tp (JONSWAP)
+        if hs is not None and np.isfinite(hs) and hs > 0.05 and np.isfinite(tp) and d is not None and np.isfinite(d):
+            parts.append(prior(hs, tp, d, 30.0 if name == "wind" else 15.0))
+    return parts or [prior(row.hs, row.tp, row.dir_from_deg)]
+
+
+def design_loadings(vessel, parameters):
+    """The prior mean loading and ±√3σ per tuned parameter (the RAO uncertainty the fit allows for)."""
+    from seatune.pipeline.tune import prior_design
+
+    if not parameters:
+        return vessel.base_loading
+    phi = prior_design(parameters)
+    return vessel.loading(**{p.name: phi[:, k] for k, p in enumerate(parameters)})
+
+
+def raos_at(vessel, loading, channels, omega, dirs_from, heading_deg) -> np.ndarray:
+    """Channel RAOs (L, nω, nD, nch) at ω and the coming-from directions D (β = ψ − D − 180°, DESIGN §3):
+    linear in ω (complex blend) and in β on the database's periodic grid."""
+    from seatune.physics.interp import interp_axis0
+    from seatune.physics.response import channel_raos
+
+    db = vessel.db
+    h = channel_raos(db, loading, [vessel.channel(c) for c in channels])  # (L, nw, nb, nch)
+    h = np.moveaxis(interp_axis0(db.omega, np.moveaxis(h, 1, 0), omega), 0, 1)
+    beta = np.mod(heading_deg - dirs_from - 180.0, 360.0)
+    grid = np.degrees(db.wave_direction)
+    step = 360.0 / grid.size
+    i = np.floor(beta / step).astype(int) % grid.size
+    f = (beta - grid[i]) / step
+    f = np.where(f < 0, f + 360.0 / step, f)
+    return (1 - f)[None, None, :, None] * h[:, :, i, :] + f[None, None, :, None] * h[:, :, (i + 1) % grid.size, :]
+
+
+def estimate_window(
+    vessel, design, channels, x: np.ndarray, fs: float, priors, settings, heading_deg: float, segment_s: float
+):
+    """The SeaEstimate of one window from its motion channels x (nch, n)."""
+    from seatune.physics.sea_estimation import cross_spectra, estimate_sea
+
+    omega, phi, nu = cross_spectra(x, fs, segment_s)
+    band = (omega >= max(settings.omega_min, vessel.db.omega[0])) & (
+        omega <= min(settings.omega_max, vessel.db.omega[-1])
+    )
+    h_all = raos_at(vessel, design, channels, omega[band], DIRS_FROM, heading_deg)
+    return estimate_sea(
+        omega[band],
+        phi[band],
+        nu,
+        DIRS_FROM,
+        h_all[0],
+        h_all,
+        priors,
+        max_partitions=settings.max_partitions,
+        min_hs=settings.min_hs,
+        channel_names=channels,
+    )
+
+
+def partition_rows(window_id: str, est, heading_deg: float, channels, priors) -> list[dict]:
+    order = sorted(range(len(est.partitions)), key=lambda k: est.partitions[k].value["tp"])
+    shortest = est.partitions[order[0]].value["tp"]
+    other = min(
+        (p.value["tp"] for s, p in zip(est.systems, est.partitions, strict=True) if s != est.systems[order[0]]),
+        default=np.inf,
+    )
+    hindcast_total = float(np.sqrt(sum(p.hs**2 for p in priors)))
+    rows = []
+    for k, i in enumerate(order):
+        p, system = est.partitions[i], est.systems[i]
+        wind = system == est.systems[order[0]] and shortest < 0.8 * other
+        kind = "wind_sea" if wind else ("total" if len(set(est.systems)) == 1 else "swell")
+        pr = p.prior
+        rows.append(
+            {
+                "window_id": window_id,
+                "partition": k,
+                "system": system,
+                "kind": kind,
+                "in_hindcast": pr is not None,
+                "hindcast_total_hs": hindcast_total,
+                "hindcast_hs": pr.hs if pr else np.nan,
+                "hindcast_tp": pr.tp if pr else np.nan,
+                "hindcast_dir_from_deg": pr.dir_from_deg if pr else np.nan,
+                **{f: p.value[f] for f in ("hs", "tp", "dir_from_deg", "spread_deg", "gamma")},
+                **{f"{f}_std": p.std[f] for f in ("hs", "tp", "dir_from_deg", "spread_deg", "gamma")},
+                "heading_deg": heading_deg,
+                "chi2_reduced": est.chi2_reduced,
+                "hindcast_misfit": est.cost_hindcast,
+                "fitted_misfit": est.cost,
+                "channels": ",".join(channels),
+            }
+        )
+    return rows
+
+
+def sea_stage(run, vessel, echo=print, force: bool = False) -> dict:
+    from seatune.io.hindcast_readers import read_hindcast
+    from seatune.io.parquet import write_table
+    from seatune.io.rundir import fingerprint, is_fresh
+    from seatune.pipeline.tune import tuning_parameters
+
+    settings = run.spec.sea
+    src = [run.artefact("motions.parquet"), run.artefact("windows.parquet")]
+    out = run.artefact("sea_states.parquet")
+    fp = fingerprint(
+        src + [run.hindcast_path, run.vessel_path],
+        {
+            "stage": "sea",
+            "sea": settings.model_dump(),
+            "uncertainty": run.spec.hindcast.uncertainty.model_dump(),
+            "parameters": list(run.spec.tuning.parameters),
+        },
+    )
+    if not settings.estimate:
+        if out.exists():
+            out.unlink()
+        return {"skipped": True, "disabled": True}
+    if not force and is_fresh([out], fp):
+        return {"skipped": True}
+    motions, windows = pd.read_parquet(src[0]), pd.read_parquet(src[1])
+    hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
+    channels = settings.channels or sea_channels(vessel, set(motions.columns))
+    design = design_loadings(vessel, tuning_parameters(run, vessel))
+    fs = run.spec.ingest.rate_hz
+    rows = []
+    for row in windows[windows["accepted"]].sort_values("start").itertuples():
+        part = motions[
+            (motions["time"] >= row.start) & (motions["time"] <= row.end) & (motions["record"] == row.record)
+        ]
+        mid = len(part) // 2
+        priors = hindcast_priors(
+            hc, row, part["lat"].iloc[mid], part["lon"].iloc[mid], run.spec.hindcast.uncertainty, settings
+        )
+        x = part[channels].to_numpy().T
+        est = estimate_window(vessel, design, channels, x, fs, priors, settings, row.heading_deg, settings.segment_s)
+        rows += partition_rows(str(row.window_id), est, row.heading_deg, channels, priors)
+    table = pd.DataFrame(rows, columns=list(SEA_UNITS))
+    write_table(table, out, SEA_UNITS, {"fingerprint": fp})
+    systems = system_table(table)
+    added = systems[~systems["in_hindcast"]] if len(systems) else systems
+    ratio = (
+        (
+            systems.groupby("window_id")["hs"].apply(lambda h: np.sqrt((h**2).sum()))
+            / systems.groupby("window_id")["hindcast_total_hs"].first()
+        )
+        if len(systems)
+        else pd.Series([np.nan])
+    )
+    return {
+        "skipped": False,
+        "windows": int(table["window_id"].nunique()) if len(table) else 0,
+        "partitions": len(table),
+        "added": len(added),
+        "hs_ratio": float(np.nanmedian(ratio)),
+        "added_hs": [round(float(v), 2) for v in added["hs"]],
+    }
+
+
+def system_table(table: pd.DataFrame) -> pd.DataFrame:
+    """One row per window and wave system: Hs = √Σ Hs², Tp, direction and spread of its strongest partition,
+    in_hindcast if any of its partitions matched a hindcast partition."""
+    if table.empty:
+        return table.assign(hindcast_total_hs=[])
+    rows = []
+    for (wid, sys_id), part in table.groupby(["window_id", "system"], sort=False):
+        top = part.loc[part["hs"].idxmax()]
+        hs = float(np.sqrt((part["hs"] ** 2).sum()))
+        rows.append(
+            {
+                "window_id": wid,
+                "system": int(sys_id),
+                "kind": top["kind"],
+                "in_hindcast": bool(part["in_hindcast"].any()),
+                "hs": hs,
+                "hs_std": float(np.sqrt(((part["hs"] / hs) ** 2 * part["hs_std"] ** 2).sum())),
+                "tp": float(top["tp"]),
+                "tp_std": float(top["tp_std"]),
+                "dir_from_deg": float(top["dir_from_deg"]),
+                "dir_from_deg_std": float(top["dir_from_deg_std"]),
+                "spread_deg": float(top["spread_deg"]),
+                "hindcast_hs": float(top["hindcast_hs"]),
+                "hindcast_tp": float(top["hindcast_tp"]),
+                "hindcast_dir_from_deg": float(top["hindcast_dir_from_deg"]),
+                "hindcast_total_hs": float(top["hindcast_total_hs"]),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+# ------------------------------------------------------------------------- downstream
+
+
+def read_sea_states(run) -> pd.DataFrame | None:
+    """sea_states.parquet of the run, or None when the sea is not estimated (then the hindcast is used)."""
+    path = run.artefact("sea_states.parquet")
+    if not run.spec.sea.estimate or not path.exists():
+        return None
+    return pd.read_parquet(path)
+
+
+def estimated_wave_spectrum(sea: pd.DataFrame, window_id: str, omega: np.ndarray):
+    """S(ω, D) [m²·s/rad²] of the window's estimated partitions on `omega` × DIRS_FROM, or None."""
+    from seatune.physics.sea_estimation import partition_spectrum
+
+    part = sea[sea["window_id"] == str(window_id)]
+    if part.empty:
+        return None
+    x = np.column_stack(
+        [
+            np.log(part["hs"]),
+            np.log(part["tp"]),
+            part["dir_from_deg"],
+            np.log(part["spread_deg"]),
+            np.log(part["gamma"]),
+        ]
+    )
+    return partition_spectrum(np.asarray(omega, dtype=float), DIRS_FROM, x), DIRS_FROM.copy(), "estimated from motions"
+
+
+@dataclass(frozen=True)
+class WindowSea:
+    """A window's sea as the stages use it: Hs and Tp (the dominant system's), and their uncertainty."""
+
+    hs: float
+    tp: float
+    hs_rel_std: float
+    tp_std_s: float
+    dir_std_deg: float
+    estimated: bool
+
+
+def sea_inputs(run) -> list:
+    """sea_states.parquet as an input of a later stage's fingerprint when the sea is estimated."""
+    return [run.artefact("sea_states.parquet")] if run.spec.sea.estimate else []
+
+
+def window_uncertainty(sea: pd.DataFrame | None, window_id, unc, hindcast_row=None) -> WindowSea:
+    """The window's sea (Hs, Tp) with its uncertainty: the estimate's (Tp and direction of the dominant
+    partition), floored at 3 %, 0.2 s and 3°; else the hindcast row's values and the run YAML's
+    hindcast.uncertainty."""
+    part = None if sea is None else sea[sea["window_id"] == str(window_id)]
+    if part is None or part.empty:
+        hs = float(hindcast_row.hs) if hindcast_row is not None else np.nan
+        tp = float(hindcast_row.tp) if hindcast_row is not None else np.nan
+        return WindowSea(hs, tp, unc.hs_rel_std, unc.tp_std_s, unc.dir_std_deg, False)
+    hs = float(np.sqrt((part["hs"] ** 2).sum()))
+    hs_std = float(np.sqrt(((part["hs"] / hs) ** 2 * part["hs_std"] ** 2).sum()))
+    top = part.loc[part["hs"].idxmax()]
+    return WindowSea(
+        hs,
+        float(top["tp"]),
+        max(hs_std / hs, 0.03),
+        max(float(top["tp_std"]), 0.2),
+        max(float(top["dir_from_deg_std"]), 3.0),
+        True,
+    )
