@@ -45,7 +45,7 @@ def images(page: str) -> list[bytes]:
 def test_report_line_ends_with_the_page_path(reported):
     out, _, stdout = reported
     lines = stdout.strip().splitlines()
-    assert [ln.split(":")[0] for ln in lines] == ["ingest", "windows", "filter", "identify", "tune", "diagnose",
+    assert [ln.split(":")[0] for ln in lines] == ["ingest", "windows", "filter", "sea", "identify", "tune", "diagnose",
                                                  "report"]
     assert lines[-1].endswith(str(out / "report.html"))
     assert (out / "report.html").is_file() and (out / "summary.parquet").is_file()

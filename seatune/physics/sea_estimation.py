@@ -173,6 +173,13 @@ class _Problem:
             r.append(np.where(np.isfinite(std), d / std, 0.0))
         return np.concatenate(r)
 
+    def mask(self, anchor: np.ndarray) -> np.ndarray:
+        """The data residuals (not the priors') of the autospectra marked in anchor (nω, nch) and the coherency
+        of pairs marked at both ends."""
+        i, j = self.pairs
+        pair = (anchor[:, i] & anchor[:, j]).ravel()
+        return np.concatenate([anchor.ravel(), pair, pair])
+
     @property
     def n_data(self) -> int:
         return self.log_auto.size + 2 * self.coh.size
@@ -192,17 +199,22 @@ def _fit(problem: _Problem, x0: np.ndarray, priors) -> optimize.OptimizeResult:
                                   method="trf", max_nfev=25 * x0.size, xtol=1e-5, ftol=1e-6)
 
 
-def _search_added(problem: _Problem, x: np.ndarray, priors, min_hs: float) -> tuple[np.ndarray, list]:
-    """Best added partition over a (Tp, direction, Hs) grid with the others fixed, as a starting point."""
-    best = None
+def _search_added(problem: _Problem, x: np.ndarray, priors, min_hs: float, starts: int = 3) -> list[np.ndarray]:
+    """Starting points of an added partition: the best cells of a (Tp, direction, Hs) grid with the others
+    fixed, at least 90° apart in direction (the heave/pitch fore–aft mirror is a second minimum)."""
+    cells = []
     for tp in (5.0, 7.0, 9.5, 12.0, 15.0, 19.0):
         for d in np.arange(0.0, 360.0, 30.0):
             for hs in (max(min_hs, 0.3), 1.0):
                 cand = np.vstack([x, [np.log(hs), np.log(tp), d, np.log(20.0), np.log(3.3)]])
-                c = 0.5 * np.sum(problem.residuals(cand.ravel(), [*priors, None]) ** 2)
-                if best is None or c < best[0]:
-                    best = (c, cand)
-    return best[1], [*priors, None]
+                cells.append((0.5 * np.sum(problem.residuals(cand.ravel(), [*priors, None]) ** 2), d, cand))
+    chosen = []
+    for _, d, cand in sorted(cells, key=lambda c: c[0]):
+        if all(abs((d - e + 180.0) % 360.0 - 180.0) >= 90.0 for e, _ in chosen):
+            chosen.append((d, cand))
+        if len(chosen) == starts:
+            break
+    return [c for _, c in chosen]
 
 
 def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_from_deg: np.ndarray,
@@ -237,18 +249,32 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
     cost_hindcast = 0.5 * float(np.sum(problem.residuals(x_prior.ravel(), list(priors)) ** 2))
     fit = _fit(problem, x_prior, list(priors))
     x, used = fit.x.reshape(-1, 5), list(priors)
-    n_eff = problem.n_data / 2.0  # adjacent Welch bins of a Hann window are correlated
-    while len(used) < max_partitions:
-        start, cand_priors = _search_added(problem, x, used, min_hs)
-        trial = _fit(problem, start, cand_priors)
-        gain = 2.0 * (fit.cost - trial.cost)
+    # a wave system must be seen where the loading hardly changes the response (design spread of the log
+    # autospectrum < 0.15: heave and pitch, away from the roll resonance they share through coupling), not
+    # only where an uncertain resonance could explain it
+    anchor = la.std(axis=0) < 0.15  # (nω, nch)
+    mask = problem.mask(anchor)
+    n_eff = max(int(mask.sum()), 2) / 2.0  # adjacent Welch bins of a Hann window are correlated
+    while len(used) < max_partitions and anchor.any():
+        cand_priors = [*used, None]
+        trial = min((_fit(problem, start, cand_priors) for start in _search_added(problem, x, used, min_hs)),
+                    key=lambda f: f.cost)
+        gain = float(np.sum(fit.fun[: mask.size][mask] ** 2) - np.sum(trial.fun[: mask.size][mask] ** 2))
         hs_new = float(np.exp(trial.x.reshape(-1, 5)[-1, 0]))
         if _DEBUG:
-            print(f"    add? gain {gain:.1f} thr {5 * np.log(n_eff):.1f} cost {fit.cost:.1f} hs {hs_new:.2f}",
-                  np.round(trial.x.reshape(-1, 5)[-1], 2))
+            print(f"    add? anchor gain {gain:.1f} thr {5 * np.log(n_eff):.1f} total {2 * (fit.cost - trial.cost):.1f}"
+                  f" hs {hs_new:.2f}", np.round(trial.x.reshape(-1, 5)[-1], 2))
         if gain <= 5 * np.log(n_eff) or hs_new < min_hs or _shape_correction(trial.x.reshape(-1, 5)):
             break
         fit, x, used = trial, trial.x.reshape(-1, 5), cand_priors
+    for k in reversed(range(len(priors), len(used))):  # prune: an added system a later one made redundant
+        if len(used) <= len(priors) + 1:
+            break
+        keep = [i for i in range(len(used)) if i != k]
+        trial = _fit(problem, x[keep], [used[i] for i in keep])
+        loss = float(np.sum(trial.fun[: mask.size][mask] ** 2) - np.sum(fit.fun[: mask.size][mask] ** 2))
+        if loss <= 5 * np.log(n_eff):
+            fit, x, used = trial, trial.x.reshape(-1, 5), [used[i] for i in keep]
     dof = max(problem.n_data - x.size, 1)
     chi2 = 2.0 * fit.cost / dof
     try:

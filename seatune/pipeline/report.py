@@ -135,6 +135,8 @@ def report_stage(run, vessel, echo=print, force: bool = False) -> dict:
         diagnosis_units=column_units(diag_path) if diag_path.exists() else {},
         diagnosis_residuals=(pd.read_parquet(run.artefact("diagnosis_residuals.parquet"))
                              if run.artefact("diagnosis_residuals.parquet").exists() else None),
+        sea_states=(pd.read_parquet(run.artefact("sea_states.parquet"))
+                    if run.spec.sea.estimate and run.artefact("sea_states.parquet").exists() else None),
         artefacts=[(p.name, p.stat().st_size, recorded_fingerprint(p) or "") for p in sorted(run.run_dir.iterdir())
                    if p.is_file() and not p.name.startswith(".") and p.name not in ("report.html", "summary.parquet")])
     means = posterior_means(history)

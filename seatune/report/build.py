@@ -134,6 +134,31 @@ def windows_section(inp: ReportInputs) -> str:
                      "a rejected window says why.")
 
 
+def sea_section(inp: ReportInputs) -> str | None:
+    sea = inp.sea_states
+    if sea is None or sea.empty:
+        return None
+    body = H.figure(P.png(P.sea_polars(sea)),
+                    "The directional sea estimated from the motions per window: S(f, D) against wave period [s, "
+                    "radius] and the direction the waves come from [deg, north up, clockwise]; o: estimated "
+                    "partitions with Hs, x: the hindcast's partitions.", "estimated directional spectra")
+    t = pd.DataFrame({"window": "W" + sea["window_id"].astype(str), "system": sea["system"], "kind": sea["kind"],
+                      "in hindcast": sea["in_hindcast"], "hindcast Hs": sea["hindcast_hs"], "Hs": sea["hs"],
+                      "± Hs": sea["hs_std"], "hindcast Tp": sea["hindcast_tp"], "Tp": sea["tp"],
+                      "± Tp": sea["tp_std"], "hindcast from": sea["hindcast_dir_from_deg"],
+                      "from": sea["dir_from_deg"], "± from": sea["dir_from_deg_std"], "spread": sea["spread_deg"],
+                      "γ": sea["gamma"]})
+    units = {"hindcast Hs": "m", "Hs": "m", "± Hs": "m", "hindcast Tp": "s", "Tp": "s", "± Tp": "s",
+             "hindcast from": "deg", "from": "deg", "± from": "deg", "spread": "deg"}
+    body += H.table(t, units, caption="Partitions of the estimated sea (sea_states.parquet): the hindcast's value "
+                    "beside the estimate and its standard deviation; a system absent from the hindcast has no "
+                    "hindcast value", digits=3, row_class=lambda r: "" if r["in hindcast"] else "rejected")
+    added = sea[~sea["in_hindcast"]]
+    return H.section("sea", "Sea state: hindcast and the sea from the ship", body,
+                     f"Every stage after this one uses the estimated sea. {len(added)} partition(s) in "
+                     f"{added['window_id'].nunique()} window(s) are absent from the hindcast.")
+
+
 def filter_section(inp: ReportInputs) -> str:
     st = inp.window_stats.copy()
     st["window"] = "W" + st["window_id"].astype(str)
@@ -445,7 +470,8 @@ def artefacts_section(inp: ReportInputs) -> str:
 def build_report(inp: ReportInputs, row: dict, units: dict[str, str]) -> str:
     """The HTML page (a string)."""
     parts = [summary_section(inp, row, units), defects_section(inp), windows_section(inp), filter_section(inp),
-             raos_section(inp), natural_frequencies_section(inp, inp.tuned_omega_n), tuning_section(inp),
+             sea_section(inp), raos_section(inp), natural_frequencies_section(inp, inp.tuned_omega_n),
+             tuning_section(inp),
              validation_section(inp), prediction_section(inp), diagnosis_section(inp), artefacts_section(inp)]
     sections = []
     for body in parts:

@@ -47,6 +47,7 @@ class ReportInputs:
     diagnosis: pd.DataFrame | None = None
     diagnosis_units: dict[str, str] = field(default_factory=dict)
     diagnosis_residuals: pd.DataFrame | None = None  # diagnosis_residuals.parquet
+    sea_states: pd.DataFrame | None = None  # sea_states.parquet (the sea estimated from the motions)
     artefacts: list[tuple[str, int, str]] = field(default_factory=list)  # (file, bytes, fingerprint)
 
     def channel_unit(self, channel: str) -> str:

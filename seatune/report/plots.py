@@ -371,3 +371,37 @@ def residual_maps(rows: pd.DataFrame, channels: list[str], title_after: str) -> 
     if image is not None:
         fig.colorbar(image, ax=axes, shrink=0.8, label="ln(measured / model) [-]")
     return fig
+
+
+def sea_polars(sea: pd.DataFrame, max_windows: int = 6) -> Figure:
+    """Per window, the estimated directional spectrum S(f, D) (period rings, waves coming from, north up,
+    clockwise), the estimated partitions (o, labelled Hs) and the hindcast's (x)."""
+    from seatune.physics.sea_estimation import partition_spectrum
+    from seatune.pipeline.sea import DIRS_FROM
+
+    ids = list(dict.fromkeys(sea["window_id"]))[:max_windows]
+    ncols = min(3, len(ids))
+    nrows = int(np.ceil(len(ids) / ncols))
+    fig = Figure(figsize=(4.0 * ncols, 3.9 * nrows), layout="constrained")
+    periods = np.linspace(4.0, 22.0, 90)
+    omega = 2 * np.pi / periods
+    for k, wid in enumerate(ids):
+        part = sea[sea["window_id"] == wid]
+        ax = fig.add_subplot(nrows, ncols, k + 1, projection="polar")
+        ax.set_theta_zero_location("N")
+        ax.set_theta_direction(-1)
+        x = np.column_stack([np.log(part["hs"]), np.log(part["tp"]), part["dir_from_deg"],
+                             np.log(part["spread_deg"]), np.log(part["gamma"])])
+        s = partition_spectrum(omega, DIRS_FROM, x)  # (n periods, n directions)
+        th = np.radians(np.r_[DIRS_FROM, 360.0])
+        ax.contourf(th, periods, np.c_[s, s[:, :1]], levels=12, cmap="Blues")
+        ax.plot(np.radians(part["dir_from_deg"]), part["tp"], "o", color="C3", ms=5)
+        for r in part.itertuples():
+            ax.annotate(f"{r.hs:.1f} m", (np.radians(r.dir_from_deg), r.tp), fontsize=7, color="C3")
+        ax.plot(np.radians(part["hindcast_dir_from_deg"]), part["hindcast_tp"], "x", color="k", ms=6)
+        ax.set_ylim(0, 22)
+        ax.set_yticks([5, 10, 15, 20])
+        ax.set_yticklabels(["5 s", "10", "15", "20"], fontsize=7)
+        ax.tick_params(labelsize=7)
+        ax.set_title(f"W{wid}", fontsize=9)
+    return fig
