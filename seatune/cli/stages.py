@@ -122,6 +122,10 @@ def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = (), progress=N
         start = time.perf_counter()
         summary = stages[stage](redo)  # later stages see new inputs through their fingerprints
         click.echo(_line(stage, summary, time.perf_counter() - start))
+        if stage == "tune" and run.spec.sea.estimate and run.spec.sea.iterations > 1 and not summary.get("skipped"):
+            from seatune.pipeline.sea import alternate
+
+            alternate(run, model, stages, echo=click.echo)
 
 
 def _command(stage: str, doc: str):

@@ -125,7 +125,7 @@ def partition_spectrum(omega: np.ndarray, dirs_from_deg: np.ndarray, x: np.ndarr
     theta = np.radians(dirs_from_deg[None, :] - x[:, 2:3])
     d = np.clip(np.cos(0.5 * theta), 0.0, None) ** (2.0 * s[:, None])  # cos-2s, unnormalised
     d_dir = TWO_PI / dirs_from_deg.size
-    d /= d.sum(axis=1, keepdims=True) * d_dir
+    d /= np.maximum(d.sum(axis=1, keepdims=True), 1e-300) * d_dir
     return np.einsum("pw,pd->wd", s1, d)
 
 
@@ -157,7 +157,7 @@ class _Problem:
     pairs: tuple[np.ndarray, np.ndarray]
 
     def statistics(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        auto = np.real(np.einsum("wjj->wj", phi)) + self.floor
+        auto = np.maximum(np.real(np.einsum("wjj->wj", phi)), 0.0) + np.maximum(self.floor, 1e-300)
         i, j = self.pairs
         return np.log(auto), phi[:, i, j] / np.sqrt(auto[:, i] * auto[:, j])
 

@@ -211,7 +211,9 @@ def partition_rows(window_id: str, est, heading_deg: float, channels, priors) ->
     return rows
 
 
-def sea_stage(run, vessel, echo=print, force: bool = False) -> dict:
+def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> dict:
+    """`parameters`: the loading belief whose RAOs (mean and ±√3σ design) the fit uses; default the priors of
+    the tuned parameters (the alternation passes the tuned posterior)."""
     from seatune.io.hindcast_readers import read_hindcast
     from seatune.io.parquet import write_table
     from seatune.io.rundir import fingerprint, is_fresh
@@ -238,7 +240,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False) -> dict:
     motions, windows = pd.read_parquet(src[0]), pd.read_parquet(src[1])
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
     channels = settings.channels or sea_channels(vessel, set(motions.columns))
-    design = design_loadings(vessel, tuning_parameters(run, vessel))
+    design = design_loadings(vessel, parameters if parameters is not None else tuning_parameters(run, vessel))
     fs = run.spec.ingest.rate_hz
     rows = []
     for row in windows[windows["accepted"]].sort_values("start").itertuples():
@@ -303,6 +305,44 @@ def system_table(table: pd.DataFrame) -> pd.DataFrame:
             }
         )
     return pd.DataFrame(rows)
+
+
+def posterior_parameters(run, vessel):
+    """The tuned posterior (last update of tuning_history.parquet) as Parameters, bounds from the priors."""
+    from seatune.pipeline.tune import tuning_parameters
+    from seatune.tuning.interface import Parameter
+
+    hist = pd.read_parquet(run.artefact("tuning_history.parquet"))
+    last = hist[hist["update"] == hist["update"].max()].set_index("parameter")
+    return [Parameter(p.name, float(last.loc[p.name, "mean"]), max(float(last.loc[p.name, "std"]), 1e-9),
+                      p.lower, p.upper) for p in tuning_parameters(run, vessel)]
+
+
+def alternate(run, vessel, stages, echo=print) -> list[dict]:
+    """Han A6/A7's alternation of sea and vessel: the sea re-estimated with the tuned loading's RAOs, then
+    identify and tune again, `sea.iterations − 1` times. Returns per round the median relative change of the
+    windows' Hs and the largest parameter move in posterior standard deviations."""
+    rounds = []
+    for k in range(2, run.spec.sea.iterations + 1):
+        hs0 = _window_hs(pd.read_parquet(run.artefact("sea_states.parquet")))
+        post0 = posterior_parameters(run, vessel)
+        sea_stage(run, vessel, echo=echo, force=True, parameters=post0)
+        stages["identify"](True)
+        stages["tune"](True)
+        hs1 = _window_hs(pd.read_parquet(run.artefact("sea_states.parquet")))
+        post1 = posterior_parameters(run, vessel)
+        dhs = float(np.nanmedian(np.abs(hs1.reindex(hs0.index) / hs0 - 1)))
+        move = max(abs(a.prior_mean - b.prior_mean) / b.prior_std for a, b in zip(post1, post0, strict=True))
+        rounds.append({"round": k, "hs_change": dhs, "parameter_move_sigma": float(move),
+                       "means": {p.name: p.prior_mean for p in post1}})
+        echo(f"alternate {k}: sea re-estimated with the tuned loading, Hs changed {100 * dhs:.1f} % (median over "
+             "windows), the tuned parameters moved at most " + f"{move:.2f} σ: "
+             + ", ".join(f"{p.name} {p.prior_mean:.4g}" for p in post1))
+    return rounds
+
+
+def _window_hs(sea: pd.DataFrame) -> pd.Series:
+    return sea.groupby("window_id")["hs"].apply(lambda h: float(np.sqrt((h**2).sum())))
 
 
 # ------------------------------------------------------------------------- downstream
