@@ -214,6 +214,7 @@ def partition_rows(window_id: str, est, heading_deg: float, channels, priors) ->
 def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> dict:
     """`parameters`: the loading belief whose RAOs (mean and ±√3σ design) the fit uses; default the priors of
     the tuned parameters (the alternation passes the tuned posterior)."""
+    from seatune.errors import UserError
     from seatune.io.hindcast_readers import read_hindcast
     from seatune.io.parquet import write_table
     from seatune.io.rundir import fingerprint, is_fresh
@@ -240,6 +241,12 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
     motions, windows = pd.read_parquet(src[0]), pd.read_parquet(src[1])
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
     channels = settings.channels or sea_channels(vessel, set(motions.columns))
+    unknown = [c for c in channels if c not in motions.columns or c not in {ch.name for ch in vessel.channels}]
+    if unknown:
+        raise UserError(str(run.path), "sea.channels", f"not both a vessel channel and a motion column: "
+                        f"{', '.join(unknown)}")
+    if not channels:
+        raise UserError(str(run.path), "sea.channels", "no angle or vertical channel among the motions")
     design = design_loadings(vessel, parameters if parameters is not None else tuning_parameters(run, vessel))
     fs = run.spec.ingest.rate_hz
     rows = []
@@ -252,6 +259,14 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
             hc, row, part["lat"].iloc[mid], part["lon"].iloc[mid], run.spec.hindcast.uncertainty, settings
         )
         x = part[channels].to_numpy().T
+        bad = ~np.isfinite(x)
+        if bad.mean() > 0.05 or len(part) < 4 * settings.segment_s * fs:
+            echo(f"sea: window {row.window_id}: {100 * bad.mean():.0f} % of the samples missing or too short for "
+                 f"{settings.segment_s:.0f} s segments; the stages take the hindcast's sea there")
+            continue
+        if bad.any():  # short gaps: linear in time
+            idx = np.arange(x.shape[1])
+            x = np.array([np.interp(idx, idx[np.isfinite(r)], r[np.isfinite(r)]) for r in x])
         est = estimate_window(vessel, design, channels, x, fs, priors, settings, row.heading_deg, settings.segment_s)
         rows += partition_rows(str(row.window_id), est, row.heading_deg, channels, priors)
     table = pd.DataFrame(rows, columns=list(SEA_UNITS))
@@ -283,7 +298,11 @@ def system_table(table: pd.DataFrame) -> pd.DataFrame:
         return table.assign(hindcast_total_hs=[])
     rows = []
     for (wid, sys_id), part in table.groupby(["window_id", "system"], sort=False):
-        top = part.loc[part["hs"].idxmax()]
+        top = part.loc[part["hs"].idxmax()].copy()
+        matched = part[part["in_hindcast"]]
+        if len(matched):  # the hindcast partition the system matched, whichever of its parts did
+            for c in ("hindcast_hs", "hindcast_tp", "hindcast_dir_from_deg"):
+                top[c] = matched[c].iloc[0]
         hs = float(np.sqrt((part["hs"] ** 2).sum()))
         rows.append(
             {
