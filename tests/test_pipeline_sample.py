@@ -29,6 +29,10 @@ def run_dir(tmp_path_factory):
     for log in data["logs"]:
         log["path"] = str(SAMPLE / log["path"].split("/")[-1])
     data["hindcast"]["path"] = str(SAMPLE / data["hindcast"]["path"].split("/")[-1])
+    # identify given the sample's hindcast, which is its simulator's own sea: the sea estimated from the motions
+    # (tested in test_sea_estimation and on the trial bank) adds a 15 s system for low-frequency heave/pitch energy
+    # the sample's linear model lacks, at the roll resonance, and moves roll ω_n by 4 % here (issue 16, open)
+    data["sea"] = {"estimate": False}
     path = tmp / "run.yaml"
     path.write_text(yaml.safe_dump(data))
     res = run_cli("filter", path)

@@ -113,14 +113,20 @@ def run_command(run_yaml, force):
                    "the same file paths, and one thread each).")
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Fleet folder (summary, index, logs); overrides the manifest's `out`.")
+@click.option("--until", metavar="STAGE", default=None,
+              help="Run each pipeline up to this stage only (e.g. diagnose: no report pages) [default: all].")
 @handle_errors
-def batch_command(manifest, workers, scheduler, out):
+def batch_command(manifest, workers, scheduler, out, until):
     """Many runs as Dask tasks; finished runs are skipped → fleet_summary.parquet and index.html."""
     from seatune.io.manifest_yaml import read_manifest
     from seatune.pipeline import batch as pb
 
     if scheduler and workers:
         raise click.UsageError("--workers sizes the local cluster; it cannot be combined with --scheduler")
+    from seatune.cli import stages as st
+
+    if until is not None and until not in st.ORDER:
+        raise click.BadParameter(f"{until!r} is not a stage (one of {', '.join(st.ORDER)})", param_hint="--until")
     m = read_manifest(manifest, out)
     runs = pb.prepare(m)
     cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
@@ -141,7 +147,7 @@ def batch_command(manifest, workers, scheduler, out):
                 update(done, rec["name"])
                 click.echo(_run_line(rec))
 
-            records = pb.run_batch(runs, m.out, client, on_result=report)
+            records = pb.run_batch(runs, m.out, client, on_result=report, until=until)
     elapsed = time.perf_counter() - start
     summary, index = pb.write_fleet_outputs(records, m.out, elapsed)
     status = [r["status"] for r in records]

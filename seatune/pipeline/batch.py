@@ -178,8 +178,9 @@ def _one_thread():
         yield
 
 
-def run_one(name: str, run_yaml: str, log_path: str, one_thread: bool = True) -> dict:
-    """The Dask task: the whole pipeline of one run (or nothing, when it is done for these inputs).
+def run_one(name: str, run_yaml: str, log_path: str, one_thread: bool = True, until: str | None = None) -> dict:
+    """The Dask task: the pipeline of one run up to `until` (default: every stage), or nothing when it is done
+    for these inputs.
 
     Returns the result record {name, status (ok / skipped / failed), error, error_type (user / internal),
     seconds, run_dir, run_yaml, log}; never raises for a failure of the run itself."""
@@ -203,6 +204,7 @@ def run_one(name: str, run_yaml: str, log_path: str, one_thread: bool = True) ->
             run = Run(run_yaml)
             rec["run_dir"] = str(run.run_dir)
             stages = tuple(st.ORDER)
+            stages = stages[: stages.index(until) + 1] if until else stages
             h = run_hash(run, stages)
             if is_done(run.run_dir, h):
                 rec["status"] = "skipped"
@@ -257,15 +259,17 @@ def dask_client(workers: int, scheduler: str | None = None, one_thread: bool = T
         yield client
 
 
-def run_batch(runs: list[BatchRun], out: Path, client, on_result=None, one_thread: bool = True) -> list[dict]:
-    """Submit one task per run; `on_result(record)` as each finishes. Records come back in manifest order."""
+def run_batch(runs: list[BatchRun], out: Path, client, on_result=None, one_thread: bool = True,
+              until: str | None = None) -> list[dict]:
+    """Submit one task per run (its stages up to `until`, default all); `on_result(record)` as each finishes.
+    Records come back in manifest order."""
     import uuid
 
     from distributed import as_completed
 
     token = uuid.uuid4().hex[:8]
     futures = {client.submit(run_one, r.name, str(r.run_yaml), str(out / "logs" / f"{r.name}.log"), one_thread,
-                             key=f"seatune-run-{r.name}-{token}", pure=False): r for r in runs}
+                             until, key=f"seatune-run-{r.name}-{token}", pure=False): r for r in runs}
     records = {}
     for fut in as_completed(futures):
         r = futures[fut]

@@ -98,7 +98,7 @@ def main(argv=None) -> int:
         read_bank(args.bank)
         if not args.no_run:  # the same code path as a fleet batch: `seatune batch` on Dask
             cmd = [sys.executable, "-m", "seatune", "batch", str(args.bank / "manifest.yaml"),
-                   "--workers", str(args.workers), "--out", str(args.out / "fleet")]
+                   "--workers", str(args.workers), "--out", str(args.out / "fleet"), "--until", "diagnose"]
             if args.scheduler:
                 cmd += ["--scheduler", args.scheduler]
             done = subprocess.run(cmd)
