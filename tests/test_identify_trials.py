@@ -20,7 +20,7 @@ def run_cli(*args):
     return subprocess.run([sys.executable, "-m", "seatune", *map(str, args)], capture_output=True, text=True)
 
 
-def trial(tmp, seed: int, headings, drop_swell=False, sea=SEA, known=True):
+def trial(tmp, seed: int, headings, drop_swell=False, sea=SEA, known=True, estimate_sea=False):
     """Simulate a trial of three 60-min drifts, write its run YAML, run identify; returns (run_dir, truth)."""
     segments = [{"kind": "transit", "duration": 600, "speed": 5.0, "course_deg": 0}]
     for h in headings:
@@ -48,7 +48,10 @@ def trial(tmp, seed: int, headings, drop_swell=False, sea=SEA, known=True):
            "logs": [{"path": str(next(logs.glob("*.mcap")))}],
            "hindcast": {"path": str(next(logs.glob("*.nc")))},
            "windows": {"max_sog": 0.5, "max_heading_change_deg": 10, "min_duration_s": 1200},
-           "filter": {"welch_segment_s": 256}}
+           "filter": {"welch_segment_s": 256},
+           # identify given the hindcast (the simulator's sea with Han's errors): with the sea estimated from the
+           # same motions the measured RAO is drawn toward the prior model's (the fit assumed it), see issue 16
+           "sea": {"estimate": estimate_sea}}
     truth = yaml.safe_load((logs / "truth.yaml").read_text())
     if known:
         run["identify"] = {"known": {k: truth["loading"][k] for k in ("mass", "zcg", "gmt_fs")}}
@@ -141,3 +144,14 @@ def test_hindcast_missing_the_swell_is_flagged_and_left_out(tmp_path):
     raos = pd.read_parquet(out / "raos.parquet")
     assert not raos[raos.scope == "window"].low_confidence.any()
     assert (raos.scope == "aggregate").any()
+    # the sea estimated from the motions finds the dropped 14 s swell: no window is flagged any more
+    out, _, _ = trial(tmp_path / "estimated", 21, (260, 90), drop_swell=True, sea=long_swell, known=False,
+                      estimate_sea=True)
+    from seatune.pipeline.sea import system_table
+
+    systems = system_table(pd.read_parquet(out / "sea_states.parquet"))
+    swell = systems[(systems.tp - 14.0).abs() < 2.0]
+    assert swell.window_id.nunique() == systems.window_id.nunique() and not swell.in_hindcast.any()
+    assert ((swell.hs / 1.8 - 1).abs() < 0.25).all(), swell
+    raos = pd.read_parquet(out / "raos.parquet")
+    assert not raos[raos.scope == "window"].low_confidence.any()

@@ -79,6 +79,7 @@ def missing_swell_trial(tmp_path_factory):
                    hindcast=hindcast)
     truth = trial.generate(spec, out)
     tdir = out / "sea"
+    truth["_folder"] = str(tdir)
     exe = Path(sys.executable).with_name("seatune")
     res = subprocess.run([str(exe), "sea", "run.yaml"], cwd=tdir, capture_output=True, text=True)
     assert res.returncode == 0, res.stdout + res.stderr
@@ -109,3 +110,32 @@ def test_the_missing_swell_is_found_and_the_wind_sea_corrected(missing_swell_tri
     hindcast_error = abs(wind["hindcast_hs"] / true["wind_sea"]["hs"] - 1)
     assert abs(wind["hs"] / true["wind_sea"]["hs"] - 1) < 0.10 < hindcast_error
     assert len(systems) <= 3 + 1  # at most one system more than the truth
+
+
+def test_sea_and_vessel_alternate_and_settle(missing_swell_trial, tmp_path):
+    """sea.iterations: 3 — the sea re-estimated with the tuned loading's RAOs, identify and tune again: the
+    windows' Hs and the tuned parameters settle (Han A6/A7's alternation)."""
+    import re
+    import shutil
+
+    import yaml
+
+    truth, _, _ = missing_swell_trial
+    src = Path(truth["_folder"]) if "_folder" in truth else None
+    assert src is not None
+    work = tmp_path / "alt"
+    shutil.copytree(src, work, ignore=shutil.ignore_patterns("run"))
+    data = yaml.safe_load((work / "run.yaml").read_text())
+    data["vessel"] = str((src / data["vessel"]).resolve())
+    data["sea"] = {"iterations": 3}
+    data["tuning"]["holdout_every"] = 0
+    (work / "run.yaml").write_text(yaml.safe_dump(data))
+    exe = Path(sys.executable).with_name("seatune")
+    res = subprocess.run([str(exe), "tune", "run.yaml"], cwd=work, capture_output=True, text=True)
+    assert res.returncode == 0, res.stdout + res.stderr
+    rounds = re.findall(r"alternate (\d): .*Hs changed ([\d.]+) %.*moved at most ([\d.]+) σ", res.stdout)
+    print(res.stdout)
+    assert [r[0] for r in rounds] == ["2", "3"]
+    hs_change = [float(r[1]) for r in rounds]
+    moves = [float(r[2]) for r in rounds]
+    assert hs_change[-1] < 5.0 and moves[-1] < 1.0
