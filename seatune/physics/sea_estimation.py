@@ -10,18 +10,21 @@ partitions it holds; partitions it lacks are searched for and kept when the data
 
 Choices (Nielsen's Bayesian wave-buoy analogy and the NetSSE spectral-residual method fit the same equation;
 neither fixes these):
-* Residuals: log autospectra (sampling variance 2/ν of a χ²_ν estimate, the Welch degrees of freedom ν) and
-  the real and imaginary parts of the complex coherency Φ_ij/√(Φ_ii Φ_jj) (variance (1 − |γ|²)²/ν + …,
-  Bendat & Piersol eq. 9.52) — phases carry direction, and coherency does not depend on the RAO's level.
+* Residuals: log autospectra (sampling variance 2/ν of a χ²_ν estimate, the Welch degrees of freedom ν, plus
+  0.1² of model error) and the real and imaginary parts of the complex coherency Φ_ij/√(Φ_ii Φ_jj) (an
+  approximate sampling variance, see estimate_sea) — phases carry direction, and coherency does not depend
+  on the RAO's level.
 * RAO uncertainty: the model's spread of each residual over the prior design loadings (the loading prior's
   mean and ±√3σ per parameter) is added to its variance, so a roll autospectrum near an uncertain roll
   resonance cannot decide the sea. A floor (1 % of the channel's peak) keeps noise-only bins from steering.
 * Fit: maximum a posteriori by Gauss–Newton (scipy least_squares) with the hindcast partitions as Gaussian
   priors (log Hs, log Tp, direction, log spread, log γ); covariance (JᵀJ)⁻¹ scaled by the reduced χ² when
   the fit is worse than the noise model (model error the variance did not hold).
-* Missing partitions: a grid over (Tp, direction) of an added partition, its best cells refined; it is kept
-  when 2Δcost exceeds BIC's k·ln n (n residuals / 2 for the correlation of adjacent Welch bins) and its
-  Hs ≥ `min_hs`.
+* Missing partitions: a grid over (Tp, direction, Hs) of an added partition, its three best cells at least
+  90° apart refined; it is kept when its χ² gain on the residuals the loading hardly changes (design spread
+  < 0.15) exceeds BIC's k·ln n (k = 5; n those residuals / 2 for the correlation of adjacent Welch bins), its
+  Hs ≥ `min_hs`, and it is not a shape correction of a stronger partition at the same period; an added
+  system a later one made redundant is pruned. Partitions close in Tp and direction form one wave system.
 """
 
 from __future__ import annotations
@@ -32,7 +35,6 @@ import numpy as np
 from scipy import optimize, signal
 
 TWO_PI = 2.0 * np.pi
-_DEBUG = False
 FIELDS = ("hs", "tp", "dir_from_deg", "spread_deg", "gamma")
 _OMEGA_NORM = np.geomspace(0.05, 8.0, 240)  # where each partition's shape is normalised to m0 = Hs²/16
 
@@ -242,6 +244,8 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
     la = np.array([s[0] for s in stats])
     ch = np.array([s[1] for s in stats])
     auto_std = np.sqrt(2.0 / nu + la.std(axis=0) ** 2 + 0.1**2)
+    # a coherency component's sampling variance, approximated: (1 − |γ|²)²/ν (the scale of Bendat & Piersol's
+    # coherence error, eq. 9.52) floored at 0.5/ν; plus the design spread and 0.05 of model error
     coh_std = np.sqrt((1.0 - np.abs(coh_m) ** 2) ** 2 / nu + 0.5 / nu + ch.real.std(axis=0) ** 2
                       + ch.imag.std(axis=0) ** 2 + 0.05**2)
     problem = _Problem(omega, dirs_from_deg, g, np.log(auto_m), coh_m, floor, auto_std, coh_std, pairs)
@@ -261,9 +265,6 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
                     key=lambda f: f.cost)
         gain = float(np.sum(fit.fun[: mask.size][mask] ** 2) - np.sum(trial.fun[: mask.size][mask] ** 2))
         hs_new = float(np.exp(trial.x.reshape(-1, 5)[-1, 0]))
-        if _DEBUG:
-            print(f"    add? anchor gain {gain:.1f} thr {5 * np.log(n_eff):.1f} total {2 * (fit.cost - trial.cost):.1f}"
-                  f" hs {hs_new:.2f}", np.round(trial.x.reshape(-1, 5)[-1], 2))
         if gain <= 5 * np.log(n_eff) or hs_new < min_hs or _shape_correction(trial.x.reshape(-1, 5)):
             break
         fit, x, used = trial, trial.x.reshape(-1, 5), cand_priors
