@@ -114,6 +114,7 @@ def run_command(run_yaml, force):
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Fleet folder (summary, index, logs); overrides the manifest's `out`.")
 @click.option("--until", metavar="STAGE", default=None,
+              callback=lambda ctx, param, v: v if v is None else _check_force(ctx, param, (v,))[0],
               help="Run each pipeline up to this stage only (e.g. diagnose: no report pages) [default: all].")
 @handle_errors
 def batch_command(manifest, workers, scheduler, out, until):
@@ -123,10 +124,6 @@ def batch_command(manifest, workers, scheduler, out, until):
 
     if scheduler and workers:
         raise click.UsageError("--workers sizes the local cluster; it cannot be combined with --scheduler")
-    from seatune.cli import stages as st
-
-    if until is not None and until not in st.ORDER:
-        raise click.BadParameter(f"{until!r} is not a stage (one of {', '.join(st.ORDER)})", param_hint="--until")
     m = read_manifest(manifest, out)
     runs = pb.prepare(m)
     cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1

@@ -90,6 +90,11 @@ class SeaEstimate:
         return float(np.sqrt(sum(p.value["hs"] ** 2 for p in self.partitions)))
 
 
+def direction_difference_deg(a, b):
+    """|a − b| of directions in degrees, on the circle: 0–180."""
+    return np.abs((np.asarray(a, dtype=float) - b + 180.0) % 360.0 - 180.0)
+
+
 # ------------------------------------------------------------------------- measured cross-spectra
 
 
@@ -212,7 +217,7 @@ def _search_added(problem: _Problem, x: np.ndarray, priors, min_hs: float, start
                 cells.append((0.5 * np.sum(problem.residuals(cand.ravel(), [*priors, None]) ** 2), d, cand))
     chosen = []
     for _, d, cand in sorted(cells, key=lambda c: c[0]):
-        if all(abs((d - e + 180.0) % 360.0 - 180.0) >= 90.0 for e, _ in chosen):
+        if all(direction_difference_deg(d, e) >= 90.0 for e, _ in chosen):
             chosen.append((d, cand))
         if len(chosen) == starts:
             break
@@ -308,7 +313,7 @@ def _shape_correction(x: np.ndarray, tp_rel: float = 0.25, hs_share: float = 0.7
     apart from a spreading error by three motions."""
     hs, tp, spread = np.exp(x[:, 0]), np.exp(x[:, 1]), np.exp(x[:, 3])
     near = np.abs(tp[:-1] - tp[-1]) / tp[:-1] < tp_rel
-    ddir = np.abs((x[:-1, 2] - x[-1, 2] + 180.0) % 360.0 - 180.0)
+    ddir = direction_difference_deg(x[:-1, 2], x[-1, 2])
     close = ddir < np.maximum(60.0, spread[:-1] + spread[-1])
     return bool(np.any(near & ((hs[-1] < hs_share * hs[:-1]) | close)))
 
@@ -326,7 +331,7 @@ def match_hindcast(parts: list[Partition], systems: list[int], priors: list[Part
     for s, p in main.items():
         for k, pr in enumerate(priors):
             dtp = abs(p.value["tp"] - pr.tp) / pr.tp
-            ddir = abs((p.value["dir_from_deg"] - pr.dir_from_deg + 180.0) % 360.0 - 180.0)
+            ddir = direction_difference_deg(p.value["dir_from_deg"], pr.dir_from_deg)
             if dtp < tp_rel and ddir < dir_deg:
                 pairs.append((dtp / tp_rel + ddir / dir_deg, s, k))
     taken_s, taken_k, match = set(), set(), {}
@@ -347,7 +352,7 @@ def wave_systems(parts: list[Partition], tp_rel: float = 0.3, dir_deg: float = 6
         for b in range(a + 1, len(parts)):
             va, vb = parts[a].value, parts[b].value
             dtp = abs(va["tp"] - vb["tp"]) / (0.5 * (va["tp"] + vb["tp"]))
-            ddir = abs((va["dir_from_deg"] - vb["dir_from_deg"] + 180.0) % 360.0 - 180.0)
+            ddir = direction_difference_deg(va["dir_from_deg"], vb["dir_from_deg"])
             if dtp < tp_rel and ddir < max(dir_deg, va["spread_deg"] + vb["spread_deg"]):
                 old, new = system[b], system[a]
                 system = [new if s == old else s for s in system]

@@ -18,6 +18,7 @@ import pandas as pd
 
 import seatune
 from seatune.errors import UserError
+from seatune.pipeline.sea import read_sea_states
 
 REQUIRED = ("motions.parquet", "waves.parquet", "windows.parquet", "window_stats.parquet", "raos.parquet",
             "natural_frequencies.parquet")
@@ -55,8 +56,6 @@ def tuned_model_raos(run, vessel, loading, windows: pd.DataFrame, motions: pd.Da
     if agg.empty:
         return pd.DataFrame(columns=["window_id", "channel", "omega", "model_tuned"])
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
-    from seatune.pipeline.sea import read_sea_states
-
     sea = read_sea_states(run)
     omega = np.sort(agg["omega"].unique())
     channels = list(dict.fromkeys(agg["channel"]))
@@ -135,8 +134,7 @@ def report_stage(run, vessel, echo=print, force: bool = False) -> dict:
         diagnosis_units=column_units(diag_path) if diag_path.exists() else {},
         diagnosis_residuals=(pd.read_parquet(run.artefact("diagnosis_residuals.parquet"))
                              if run.artefact("diagnosis_residuals.parquet").exists() else None),
-        sea_states=(pd.read_parquet(run.artefact("sea_states.parquet"))
-                    if run.spec.sea.estimate and run.artefact("sea_states.parquet").exists() else None),
+        sea_states=read_sea_states(run),
         artefacts=[(p.name, p.stat().st_size, recorded_fingerprint(p) or "") for p in sorted(run.run_dir.iterdir())
                    if p.is_file() and not p.name.startswith(".") and p.name not in ("report.html", "summary.parquet")])
     means = posterior_means(history)

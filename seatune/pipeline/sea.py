@@ -275,7 +275,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
     added = systems[~systems["in_hindcast"]] if len(systems) else systems
     ratio = (
         (
-            systems.groupby("window_id")["hs"].apply(lambda h: np.sqrt((h**2).sum()))
+            _window_hs(systems)
             / systems.groupby("window_id")["hindcast_total_hs"].first()
         )
         if len(systems)
@@ -291,6 +291,12 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
     }
 
 
+def combined_hs(part: pd.DataFrame) -> tuple[float, float]:
+    """Hs = √Σ Hs² of partitions sharing one sea and its standard deviation (independent partition errors)."""
+    hs = float(np.sqrt((part["hs"] ** 2).sum()))
+    return hs, float(np.sqrt(((part["hs"] / hs) ** 2 * part["hs_std"] ** 2).sum()))
+
+
 def system_table(table: pd.DataFrame) -> pd.DataFrame:
     """One row per window and wave system: Hs = √Σ Hs², Tp, direction and spread of its strongest partition,
     in_hindcast if any of its partitions matched a hindcast partition."""
@@ -303,7 +309,7 @@ def system_table(table: pd.DataFrame) -> pd.DataFrame:
         if len(matched):  # the hindcast partition the system matched, whichever of its parts did
             for c in ("hindcast_hs", "hindcast_tp", "hindcast_dir_from_deg"):
                 top[c] = matched[c].iloc[0]
-        hs = float(np.sqrt((part["hs"] ** 2).sum()))
+        hs, hs_std = combined_hs(part)
         rows.append(
             {
                 "window_id": wid,
@@ -311,7 +317,7 @@ def system_table(table: pd.DataFrame) -> pd.DataFrame:
                 "kind": top["kind"],
                 "in_hindcast": bool(part["in_hindcast"].any()),
                 "hs": hs,
-                "hs_std": float(np.sqrt(((part["hs"] / hs) ** 2 * part["hs_std"] ** 2).sum())),
+                "hs_std": hs_std,
                 "tp": float(top["tp"]),
                 "tp_std": float(top["tp_std"]),
                 "dir_from_deg": float(top["dir_from_deg"]),
@@ -361,7 +367,7 @@ def alternate(run, vessel, stages, echo=print) -> list[dict]:
 
 
 def _window_hs(sea: pd.DataFrame) -> pd.Series:
-    return sea.groupby("window_id")["hs"].apply(lambda h: float(np.sqrt((h**2).sum())))
+    return sea.groupby("window_id")[["hs", "hs_std"]].apply(lambda part: combined_hs(part)[0])
 
 
 # ------------------------------------------------------------------------- downstream
@@ -420,8 +426,7 @@ def window_uncertainty(sea: pd.DataFrame | None, window_id, unc, hindcast_row=No
         hs = float(hindcast_row.hs) if hindcast_row is not None else np.nan
         tp = float(hindcast_row.tp) if hindcast_row is not None else np.nan
         return WindowSea(hs, tp, unc.hs_rel_std, unc.tp_std_s, unc.dir_std_deg, False)
-    hs = float(np.sqrt((part["hs"] ** 2).sum()))
-    hs_std = float(np.sqrt(((part["hs"] / hs) ** 2 * part["hs_std"] ** 2).sum()))
+    hs, hs_std = combined_hs(part)
     top = part.loc[part["hs"].idxmax()]
     return WindowSea(
         hs,

@@ -9,6 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from seatune.physics.sea_estimation import direction_difference_deg
+
 VESSEL_EFFECTS = ("quadratic_roll_damping", "moonpool", "anti_roll_tank", "imu_lever_arm", "imu_misalignment")
 SEA_EFFECTS = ("hs_bias", "missing_swell", "wave_spreading")
 DOFS = ("heave", "roll", "pitch")
@@ -105,10 +107,6 @@ def score_trial(truth: dict, artefacts: dict[str, pd.DataFrame | None], model_mo
     return row
 
 
-def _angle(a, b) -> float:
-    return float(abs((a - b + 180.0) % 360.0 - 180.0))
-
-
 def match_windows(truth_windows: list[dict], windows: pd.DataFrame) -> dict[str, dict]:
     """{seatune window_id: the truth window it overlaps most} for the accepted windows."""
     out = {}
@@ -139,7 +137,7 @@ def sea_rows(truth: dict, sea: pd.DataFrame | None, windows: pd.DataFrame | None
         for i, p in enumerate(parts):
             for j, e in est.iterrows():
                 dtp = abs(e["tp"] - p["tp"]) / p["tp"]
-                ddir = _angle(e["dir_from_deg"], p["dir_from_deg"])
+                ddir = direction_difference_deg(e["dir_from_deg"], p["dir_from_deg"])
                 if dtp < 0.3 and ddir < 45.0:
                     pairs.append((dtp / 0.3 + ddir / 45.0, i, j))
         match, used = {}, set()
@@ -155,7 +153,8 @@ def sea_rows(truth: dict, sea: pd.DataFrame | None, windows: pd.DataFrame | None
                          "in_hindcast": bool(p.get("in_hindcast", True)), "found": e is not None,
                          "hs_rel_error": float(e["hs"] / p["hs"] - 1) if e is not None else np.nan,
                          "tp_rel_error": float(e["tp"] / p["tp"] - 1) if e is not None else np.nan,
-                         "dir_error_deg": _angle(e["dir_from_deg"], p["dir_from_deg"]) if e is not None else np.nan,
+                         "dir_error_deg": (float(direction_difference_deg(e["dir_from_deg"], p["dir_from_deg"]))
+                                           if e is not None else np.nan),
                          "hindcast_hs_rel_error": hc_hs / p["hs"] - 1 if np.isfinite(hc_hs) else np.nan,
                          "false_system": False})
         for j, e in est.iterrows():
