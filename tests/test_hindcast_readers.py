@@ -9,6 +9,7 @@ JONSWAP partitions, and arithmetic (the mean of two hours, the circular mean of 
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pandas as pd
@@ -491,3 +492,286 @@ def test_wavespectra_netcdf_on_a_grid(tmp_path):
     hs = hc.bulk["hs"].values[0].mean(axis=0)  # lat 57.75 is half-way too
     assert at_track(hc, TIMES[:1], 57.75, 179.75)["hs"].iloc[0] == pytest.approx(0.5 * (hs[0] + hs[1]), rel=1e-12)
     assert at_track(hc, TIMES[:1], 57.75, -179.75)["hs"].iloc[0] == pytest.approx(0.5 * (hs[1] + hs[2]), rel=1e-12)
+
+
+# ------------------------------------------------------------------------------------------------
+# land and sea ice: NaN through every reader, the stencil renormalised over the sea corners
+# ------------------------------------------------------------------------------------------------
+
+COAST_TIMES = TIMES[:3]
+# nodes 60.5…62.0 N × 2.5…4.0 E (0.5°); land in the north-east, sea ice on (60.5, 4.0) from 07:00
+LAND_NODES = [(61.5, 3.5), (61.5, 4.0), (62.0, 3.5), (62.0, 4.0), (61.0, 4.0)]
+ICE_NODE, ICE_FROM = (60.5, 4.0), 2
+# track points: (time, lat, lon, sea corners at every time used — counted by hand from the nodes above)
+COAST_POINTS = [
+    ("05:20", 61.25, 3.25, 3),  # one land corner (61.5, 3.5)
+    ("05:50", 61.25, 3.75, 1),  # three land corners, only (61.0, 3.5) is sea
+    ("06:10", 61.75, 3.25, 2),  # the cell's east side is land
+    ("06:45", 60.75, 2.75, 4),  # open sea
+    ("06:30", 60.75, 3.75, 2),  # (61.0, 4.0) land, (60.5, 4.0) ice at 07:00
+    ("05:00", 61.0, 3.5, 1),  # on a sea node next to land: the land corners have zero weight, not partial
+]
+
+
+def _coast_land(lat, lon):
+    """(time, lat, lon) True on land or ice for nodes `lat` × `lon`."""
+    la, lo = np.meshgrid(lat, lon, indexing="ij")
+    land = np.zeros((COAST_TIMES.size, *la.shape), bool)
+    for y, x in LAND_NODES:
+        land[:, np.isclose(la, y) & np.isclose(lo, x)] = True
+    land[ICE_FROM:, np.isclose(la, ICE_NODE[0]) & np.isclose(lo, ICE_NODE[1])] = True
+    return land
+
+
+@pytest.fixture(scope="module")
+def coast_files(tmp_path_factory):
+    """ERA5 grids with land / ice nodes missing (NaN), as CDS delivers them: {kind: path}."""
+    root = tmp_path_factory.mktemp("coast")
+    parts = [_parts(i) for i in range(COAST_TIMES.size)]
+    bulk = hw.era5_bulk_fields(WIND[:3], SWELL[:3])
+    grid = hw.grid_fields_around_track(
+        COAST_TIMES,
+        [61.2, 61.25, 61.3],
+        [3.2, 3.25, 3.3],
+        bulk,
+        d2fd=hw.era5_d2fd(parts),
+        field_gradients={"pp1d": (0.6, -0.8), "mwd": (10.0, -7.0), "mwp": (0.3, -0.2)},  # Tp, direction vary too
+    )
+    assert_allclose(grid.latitudes, [62.0, 61.5, 61.0, 60.5]) and assert_allclose(grid.longitudes, [2.5, 3.0, 3.5, 4.0])
+    land = _coast_land(grid.latitudes, grid.longitudes)
+    fields = {k: np.where(land, np.nan, v) for k, v in grid.fields.items()}
+    d2fd = np.where(land[..., None, None], np.nan, grid.d2fd)
+    out = {}
+    for kind, layout, with_bulk in (("new", True, True), ("legacy", False, True), ("spectra", True, False)):
+        out[kind] = hw.write_era5_netcdf(
+            root / f"{kind}.nc", COAST_TIMES, grid.latitudes, grid.longitudes, fields if with_bulk else {}, d2fd,
+            new_cds_layout=layout,
+        )
+    # the variant wavespectra produces: its own ERA5 reader fills the missing land spectra with 0
+    ws = wavespectra.read_era5(str(out["spectra"]))
+    ws.load().to_netcdf(root / "zero_filled.nc")
+    ws.close()
+    out["zero_filled"] = root / "zero_filled.nc"
+    return out
+
+
+def _points():
+    t = pd.DatetimeIndex([f"2026-03-14T{p[0]}" for p in COAST_POINTS])
+    lat = np.array([p[1] for p in COAST_POINTS])
+    lon = np.array([p[2] for p in COAST_POINTS])
+    return t, lat, lon
+
+
+def _sea_only(field: xr.DataArray, sea: xr.DataArray, t, lat, lon) -> np.ndarray:
+    """xarray's own multilinear interpolation over the sea nodes only: interp(field, 0 on land) / interp(sea)."""
+    at = {"time": xr.DataArray(t.values, dims="p"), "lat": xr.DataArray(lat, dims="p"),
+          "lon": xr.DataArray(lon, dims="p")}
+    return (field.where(sea, 0.0).interp(at) / sea.astype(float).interp(at)).values
+
+
+def _sea_only_dir(deg: xr.DataArray, sea, t, lat, lon) -> np.ndarray:
+    s = _sea_only(np.sin(np.deg2rad(deg)), sea, t, lat, lon)
+    c = _sea_only(np.cos(np.deg2rad(deg)), sea, t, lat, lon)
+    return np.mod(np.rad2deg(np.arctan2(s, c)), 360.0)
+
+
+def _reference(path, kind):
+    """Node values read independently (xarray; wavespectra's own reader and Hs/Tp/Dm for the spectra), land by
+    the missing values in the file: (sea, hs, tp, dir, efth) with dims time, lat (ascending), lon."""
+    with xr.open_dataset(path) as raw:
+        raw = raw.load()
+    tname = "valid_time" if "valid_time" in raw.dims else "time"
+    raw = raw.rename({tname: "time", "latitude": "lat", "longitude": "lon"}).sortby("lat")
+    fdims = [d for d in raw["d2fd"].dims if d not in ("time", "lat", "lon")]
+    ws = wavespectra.read_era5(str(path))
+    efth = ws["efth"].load().sortby("lat").sortby("dir")  # float32 as wavespectra gives it
+    ws.close()
+    if kind == "spectra":
+        sea = raw["d2fd"].notnull().any(fdims)
+        hs, tp, dirs = (v.astype(float) for v in (efth.spec.hs(), efth.spec.tp(), efth.spec.dm()))
+    else:
+        sea = raw["swh"].notnull()
+        hs, tp, dirs = (raw[v].astype(float) for v in ("swh", "pp1d", "mwd"))
+    return sea, hs, tp, dirs, efth.astype(float)
+
+
+@pytest.mark.parametrize("kind", ["new", "legacy", "spectra", "zero_filled"])
+def test_land_and_ice_corners_are_left_out_as_xarray_interpolates_the_sea(coast_files, kind):
+    path = coast_files[kind]
+    sea, hs, tp, dirs, efth = _reference(path, kind) if kind != "zero_filled" else _reference(
+        coast_files["spectra"], "spectra")
+    if kind == "zero_filled":  # the file holds exact zeros at land, not NaN
+        with xr.open_dataset(path) as zf:
+            assert float(np.abs(zf["efth"].sortby("lat").where(~sea)).max()) == 0.0
+    hc = read_hindcast(path)
+    assert hc.format == ("wavespectra" if kind == "zero_filled" else "era5")
+    # land / ice stay NaN in every variable and spectrum; the sea is untouched
+    land = ~sea.transpose("time", "lat", "lon").values
+    assert land.sum() == 3 * 5 + 1
+    for name in hc.bulk.data_vars:
+        assert np.isnan(hc.bulk[name].values[land]).all(), name
+    assert np.isfinite(hc.bulk["hs"].values[~land]).all()
+    spec = hc.spectra.transpose("time", "lat", "lon", "freq", "dir").values
+    assert np.isnan(spec[land]).all() and np.isfinite(spec[~land]).all()
+
+    t, lat, lon = _points()
+    df = at_track(hc, t, lat, lon)
+    assert_allclose(df["hs"], _sea_only(hs, sea, t, lat, lon), rtol=0, atol=1e-9)
+    assert_allclose(df["tp"], _sea_only(tp, sea, t, lat, lon), rtol=0, atol=1e-9)
+    assert _circ_diff(df["dir_from_deg"], _sea_only_dir(dirs, sea, t, lat, lon)).max() < 1e-9
+    assert df["sea_corners"].tolist() == [p[3] for p in COAST_POINTS]
+    assert df["stencil_corners"].tolist() == [4, 4, 4, 4, 4, 1]
+    # the land pulled Hs down before: a plain bilinear interpolation with land as 0 sits well below
+    filled = _sea_only(hs.fillna(0.0), xr.ones_like(sea), t, lat, lon)
+    assert (df["hs"].to_numpy()[:3] > 1.2 * filled[:3]).all()
+    # the spectrum: the weighted mean over the sea corners, scaled by (Σ w Hs)² / Σ w Hs² (spectrum_at)
+    for k in (0, 1, 2, 4):
+        got = spectrum_at(hc, t[k], lat[k], lon[k])
+        one = (t[k : k + 1], lat[k : k + 1], lon[k : k + 1])
+        mean = xr.concat([_one_spectrum(efth, sea, *one)], "p")[0]
+        factor = _sea_only(hs, sea, *one) ** 2 / _sea_only(hs**2, sea, *one)
+        ref = (mean * factor[0]).transpose("freq", "dir").values
+        assert_allclose(got.values, ref, rtol=0, atol=1e-9 * ref.max())
+
+
+def _one_spectrum(efth, sea, t, lat, lon):
+    at = {"time": t.values[0], "lat": lat[0], "lon": lon[0]}
+    return efth.where(sea, 0.0).interp(at) / sea.astype(float).interp(at)
+
+
+def test_no_sea_corner_is_a_one_line_error_naming_time_and_place(coast_files):
+    path = coast_files["new"]
+    hc = read_hindcast(path)
+    t = pd.DatetimeIndex(["2026-03-14T05:30", "2026-03-14T06:00"])
+    with pytest.raises(UserError) as e:
+        at_track(hc, t, [61.25, 61.75], [3.25, 3.75])
+    msg = _one_line(e, path)
+    assert ("no sea at lat 61.75, lon 3.75, 2026-03-14T06:00Z: all 4 grid corners are land or ice (hs missing) "
+            "(1 of 2 track points)") in msg
+    with pytest.raises(UserError, match=r"no sea at lat 61\.75, lon 3\.75, 2026-03-14T06:00Z") as e:
+        spectrum_at(hc, t[1], 61.75, 3.75)
+    _one_line(e, path)
+    # a single-site hindcast (CSV) with Hs missing on both sides of the time
+    table = hw.hindcast_table_from_partitions(TIMES[:3], WIND[:3], SWELL[:3])
+    table.loc[[1, 2], "hs"] = np.nan
+    csv = hw.write_hindcast_csv(path.parent / "gap.csv", table)
+    hc = read_hindcast(csv)
+    assert np.isnan(hc.bulk["tp"].values[1:, 0]).all()  # the row's other values go with its Hs
+    assert at_track(hc, TIMES[:1] + pd.Timedelta(minutes=30))["sea_corners"].iloc[0] == 0  # 05:00 only
+    gap = r"hs missing \(land, ice or a gap\) at the hindcast times around 2026-03-14T06:30Z"
+    with pytest.raises(UserError, match=gap) as e:
+        at_track(hc, TIMES[1:2] + pd.Timedelta(minutes=30))
+    _one_line(e, csv)
+
+
+def test_ww3_station_without_spectrum_is_left_out(tmp_path):
+    # station 0 ice-covered from 06:00 (spectrum all 0), station 2 on land (all 0 at every time)
+    path = _ww3_file(tmp_path / "ww3.nc", [61.0, 61.5, 61.2], [2.0, 2.8, 2.3])
+    with xr.open_dataset(path) as raw:
+        raw = raw.load()
+    efth = raw["efth"].values.copy()
+    efth[1:, 0] = 0.0
+    efth[:, 2] = 0.0
+    raw["efth"].values = efth
+    raw.to_netcdf(tmp_path / "coast_ww3.nc")
+    hc = read_hindcast(tmp_path / "coast_ww3.nc")
+    assert np.isnan(hc.bulk["hs"].values[1:, 0]).all() and np.isnan(hc.bulk["hs"].values[:, 2]).all()
+    assert np.isnan(hc.spectra.values[:, 2]).all() and np.isfinite(hc.bulk["tp"].values[:, 1]).all()
+    # inverse-distance weights over the sea stations only (wavespectra's rule: 1/d, d in degrees)
+    ref = wavespectra.read_ww3(str(path))
+    hs_ref = ref.spec.hs().transpose("time", "site").values.astype(float)  # wavespectra's Hs of the untouched file
+    ref.close()
+    la, lo = 61.22, 2.35
+    d = np.hypot(np.array([2.0, 2.8, 2.3]) - lo, np.array([61.0, 61.5, 61.2]) - la)
+    w = np.where([[True, True, False]] + [[False, True, False]] * 4, 1.0 / d, 0.0)
+    df = at_track(hc, TIMES, la, lo)
+    assert_allclose(df["hs"], (w * hs_ref).sum(axis=1) / w.sum(axis=1), rtol=1e-9)
+    assert df["sea_corners"].tolist() == [2, 1, 1, 1, 1] and df["stencil_corners"].tolist() == [3] * 5
+
+
+def test_all_sea_stencils_are_unchanged(era5_files):
+    # float.hex of the pre-mask code (commit 395942e) on the existing fixture: bit for bit
+    path, _ = era5_files[("new", "greenwich")]
+    hc = read_hindcast(path)
+    t = TIMES[:4] + pd.to_timedelta([0, 20, 37, 50], unit="min")
+    lat, lon = np.array([61.05, 61.2, 61.37, 61.5]), np.array([359.6, 359.9, 0.1, 0.45])
+    df = at_track(hc, t, lat, lon)
+    before = {
+        "hs": ["0x1.ea48dfd70a3cap+0", "0x1.bb273006d3a13p+0", "0x1.e9378d0432c98p+0", "0x1.3e975f088888cp+1"],
+        "tp": ["0x1.a000000000000p+3", "0x1.9ffffaaaaaaacp+3", "0x1.3190994444444p+3", "0x1.ef2afcaaaaaaap+2"],
+        "dir_from_deg": ["0x1.0f64effffe63bp+8", "0x1.19cca9c6dabccp+8", "0x1.1cbb96179979cp+8",
+                         "0x1.155128a014298p+8"],
+        "spreading": ["0x1.532de343dda21p-1", "0x1.108ed64ac31f7p-1", "0x1.004f62e77d40ap-1",
+                      "0x1.39c773860edaap-1"],
+        "swell_hs": ["0x1.324744a3d709bp+0", "0x1.32e48f1111119p+0", "0x1.35058df92c5f1p+0",
+                     "0x1.34a7720000003p+0"],
+        "wind_dir_from_deg": ["0x1.f400000000000p+7", "0x1.fe00000000000p+7", "0x1.0900000000000p+8",
+                              "0x1.0d2ad12fa6138p+8"],
+    }
+    for name, hexes in before.items():
+        assert [float(x).hex() for x in df[name]] == hexes, name
+    assert df["sea_corners"].tolist() == df["stencil_corners"].tolist() == [4, 4, 4, 2]  # the last on a node row
+    s = spectrum_at(hc, t[1], lat[1], lon[1]).values
+    assert [float(v).hex() for v in (s.sum(), (s**2).sum(), s.max())] == [
+        "0x1.27253c414dd94p+0", "0x1.ccd99d1b936bfp-6", "0x1.15b73ddd5ecd0p-4"]
+
+
+def _ingest(tmp_path, hindcast):
+    """`seatune ingest` (a subprocess, as a user runs it) on one minute of IMU at 07:00 and the sample GNSS."""
+    import subprocess
+    import sys
+
+    import yaml
+
+    from tests.conftest import ROOT
+
+    n = 600
+    t = pd.Timestamp("2026-03-14T07:00:00Z") + pd.to_timedelta(np.arange(n) * 0.1, unit="s")
+    imu = pd.DataFrame({"time": t.strftime("%Y-%m-%dT%H:%M:%S.%fZ"), "qx": 0.0, "qy": 0.0, "qz": 0.0, "qw": 1.0,
+                        "wx": 0.0, "wy": 0.0, "wz": 0.0, "ax": 0.0, "ay": 0.0, "az": 9.81})
+    imu.to_csv(tmp_path / "imu.csv", index=False)
+    logs = [{"path": str(tmp_path / "imu.csv"), "kind": "imu"},
+            {"path": str(ROOT / "sample_logs/sample_trial_gnss.csv"), "kind": "gnss",
+             "columns": {"vel_east": "vx", "vel_north": "vy"}}]
+    run = {"name": "coast", "run_dir": str(tmp_path / "run"), "vessel": str(ROOT / "configs/vessels/sample_osv.yaml"),
+           "logs": logs, "hindcast": {"path": str(hindcast)}}
+    (tmp_path / "run.yaml").write_text(yaml.safe_dump(run))
+    return subprocess.run([sys.executable, "-m", "seatune", "ingest", str(tmp_path / "run.yaml")],
+                          capture_output=True, text=True)
+
+
+def _sample_with_land(path, nodes):
+    from tests.conftest import ROOT
+
+    with xr.open_dataset(ROOT / "sample_logs/sample_trial_era5.nc") as ds:
+        ds = ds.load()
+    land = xr.zeros_like(ds["swh"].isel(valid_time=0, drop=True), dtype=bool)
+    for y, x in nodes:
+        land = land | ((ds.latitude == y) & (ds.longitude == x))
+    for name in ds.data_vars:
+        ds[name] = ds[name].where(~land)
+    ds.to_netcdf(path)
+    return path
+
+
+def test_ingest_counts_partial_stencils_and_stops_with_no_sea(tmp_path):
+    from seatune.io.parquet import column_units
+
+    # the track at 07:00 (61.27 N, 3.16 E) lies in the cell 61.0–61.5 N × 3.0–3.5 E
+    res = _ingest(tmp_path, _sample_with_land(tmp_path / "coast.nc", [(61.5, 3.5)]))
+    assert res.returncode == 0, res.stderr
+    assert "hindcast: 2 of 2 track hours next to land or ice" in res.stdout
+    waves = pd.read_parquet(tmp_path / "run" / "waves.parquet")
+    assert waves["sea_corners"].tolist() == [3, 3] and waves["stencil_corners"].tolist() == [4, 4]
+    units = column_units(tmp_path / "run" / "waves.parquet")
+    assert units["sea_corners"] == units["stencil_corners"] == "dimensionless"
+
+    cell = [(61.0, 3.0), (61.0, 3.5), (61.5, 3.0), (61.5, 3.5)]
+    bad = _sample_with_land(tmp_path / "land.nc", cell)
+    res = _ingest(tmp_path, bad)
+    assert res.returncode == 2, (res.stdout, res.stderr)
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and f"{bad}: no sea at" in lines[0], res.stderr
+    assert re.search(r"no sea at lat 61\.2\d*, lon 3\.1\d*, 2026-03-14T07:00Z: all 4 grid corners are land", lines[0])
+    # the earlier good artefact is still there
+    assert pd.read_parquet(tmp_path / "run" / "waves.parquet")["sea_corners"].tolist() == [3, 3]

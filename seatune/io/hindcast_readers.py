@@ -25,6 +25,11 @@ inverse-distance weighting between scattered stations (wavespectra's ``sel(metho
 linear in time. Directions are interpolated as unit vectors. Corners holding NaN (land, an absent
 partition) are left out and the other weights renormalised; the number of such points is kept in
 ``DataFrame.attrs["partial_stencil"]``.
+
+Land and sea ice: every reader leaves them NaN in every variable and spectrum. ERA5 has them missing;
+wavespectra's ERA5 reader fills the missing d2fd with 0, so a spectrum without any positive value is
+land / ice unless the file's own ``swh`` says sea. At the track, ``sea_corners`` / ``stencil_corners``
+count the neighbours used and those with a weight; a track point without any sea neighbour is a UserError.
 """
 
 from __future__ import annotations
@@ -172,11 +177,14 @@ def _check_increasing(
 
 
 def _finish_bulk(ds: xr.Dataset) -> xr.Dataset:
-    """Order variables, wrap directions to [0, 360), set units."""
+    """Order variables, wrap directions to [0, 360), set units; every variable NaN where Hs is (land, ice)."""
     names = [n for n in _ORDER if n in ds] + sorted(n for n in ds.data_vars if n not in _ORDER)
     ds = ds[names]
+    sea = np.isfinite(ds["hs"].astype(float)) if "hs" in ds else None
     for n in names:
         ds[n] = ds[n].astype(float)
+        if sea is not None:
+            ds[n] = ds[n].where(sea)
         if n.endswith("dir_from_deg"):
             ds[n] = np.mod(ds[n], 360.0)
             ds[n].attrs["units"] = "degree"
@@ -365,6 +373,7 @@ def _read_era5(path: Path) -> Hindcast:
         efth = efth.isel(time=np.flatnonzero(keep)).assign_coords(time=t.values)
         spectra = efth.sortby("lat").sortby("dir").transpose("time", "lat", "lon", "freq", "dir")
         stats = _spectral_bulk(spectra)
+        stats["hs"] = stats["hs"].where(_has_spectrum(spectra))  # wavespectra's 0 at land → NaN
         if bulk is None:
             bulk = stats
         else:
@@ -374,6 +383,8 @@ def _read_era5(path: Path) -> Hindcast:
             bulk["spreading"] = stats["spreading"]
     bulk = _finish_bulk(bulk.sortby("lat").transpose("time", "lat", "lon"))
     _check_grid(bulk, src)
+    if spectra is not None:  # land / ice by the file's swh when it has one, else by the empty spectra
+        spectra = _mask_spectra(spectra, bulk)
     notes = [f"{n_dup} duplicated time(s) dropped"] if n_dup else []
     return Hindcast(src, bulk, spectra, "era5", notes)
 
@@ -392,6 +403,21 @@ def _merge_expver(obj, zero_filled: bool = False):
     for k in range(1, obj.sizes["expver"]):
         out = out.combine_first(obj.isel(expver=k, drop=True))
     return out
+
+
+def _has_spectrum(efth: xr.DataArray) -> xr.DataArray:
+    """False where a spectrum holds no energy at all: all NaN, or all 0 as wavespectra fills ERA5's missing
+    (land / sea-ice) points (``from_era5``: ``fillna(0)``). A sea spectrum of ERA5 is never identically 0:
+    its values are 10**d2fd > 0, only single bins below the packing floor are missing."""
+    return (efth > 0).any(("freq", "dir"))
+
+
+def _mask_spectra(efth: xr.DataArray, bulk: xr.Dataset) -> xr.DataArray:
+    """Spectra NaN where the bulk Hs is (land, ice); `bulk` has the spectra's (time, space) order."""
+    sea = np.isfinite(bulk["hs"].values)
+    if sea.all():
+        return efth
+    return efth.where(xr.DataArray(sea, dims=bulk["hs"].dims))
 
 
 def _spectral_bulk(efth: xr.DataArray) -> xr.Dataset:
@@ -477,12 +503,14 @@ def _from_spec_dataset(sds: xr.Dataset, src: str, kind: str) -> Hindcast:
     extra = [c for c in efth.coords if c not in ("time", "lat", "lon", "site", "freq", "dir")]
     efth = efth.reset_coords(extra, drop=True)
     bulk = _spectral_bulk(efth)
+    bulk["hs"] = bulk["hs"].where(_has_spectrum(efth))  # an all-NaN or all-0 spectrum is land / ice
     for c in ("lat", "lon"):
         if c in efth.coords:
             bulk = bulk.assign_coords({c: efth[c]})
     bulk = _finish_bulk(bulk.transpose("time", *space))
     if space == ("lat", "lon"):
         _check_grid(bulk, src)
+    efth = _mask_spectra(efth, bulk)
     notes = [f"{int((~keep).sum())} duplicated time(s) dropped"] if not keep.all() else []
     return Hindcast(src, bulk, efth, kind, notes)
 
@@ -907,6 +935,32 @@ def _weighted(values: np.ndarray, st: _Stencil) -> tuple[np.ndarray, np.ndarray]
     return out, partial
 
 
+def _sea_corners(hs: np.ndarray, st: _Stencil) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per track point: spatial corners with a positive weight, those holding sea (finite Hs) at every used
+    time, and whether any (time, corner) entry with a positive weight holds sea. hs (T, S)."""
+    finite = np.isfinite(hs[st.it[:, :, None], st.isp[:, None, :]])  # (n, 2, m)
+    used_t = (st.wt > 0)[:, :, None]
+    used_s = st.ws > 0
+    sea_always = np.all(finite | ~used_t, axis=1) & used_s
+    any_sea = (finite & used_t & used_s[:, None, :]).any(axis=(1, 2))
+    return used_s.sum(axis=1), sea_always.sum(axis=1), any_sea
+
+
+def _no_sea_error(hc: Hindcast, t: pd.DatetimeIndex, lat, lon, n_corners: np.ndarray, any_sea: np.ndarray):
+    k = int(np.flatnonzero(~any_sea)[0])
+    count = f"{int((~any_sea).sum())} of {any_sea.size} track points"
+    single = "site" in hc.bulk.dims and (hc.bulk.sizes["site"] == 1 or "lat" not in hc.bulk.coords)
+    if lat is None or lon is None or single:
+        where = f"hs missing (land, ice or a gap) at the hindcast times around {_fmt_time(t[k])}"
+    else:
+        la = float(np.broadcast_to(np.asarray(lat, float), t.shape)[k])
+        lo = float(np.broadcast_to(np.asarray(lon, float), t.shape)[k])
+        corners = "grid corners" if "site" not in hc.bulk.dims else "nearest sites"
+        where = (f"no sea at lat {_fmt_num(la)}, lon {_fmt_num(lo)}, {_fmt_time(t[k])}: all {int(n_corners[k])} "
+                 f"{corners} are land or ice (hs missing)")
+    raise UserError(hc.source, None, f"{where} ({count})")
+
+
 def _flat(hc: Hindcast, name: str) -> np.ndarray:
     da = hc.bulk[name]
     space = [d for d in da.dims if d != "time"]
@@ -935,19 +989,31 @@ def at_track(
     -------
     DataFrame
         ``time`` (datetime64[ns, UTC]), ``hs``, ``tp``, ``dir_from_deg``, the other bulk variables
-        (spreading, mwp, partitions …) and ``source`` (the hindcast file). ``attrs["partial_stencil"]``
-        counts the points where NaN neighbours were left out.
+        (spreading, mwp, partitions …), ``sea_corners`` and ``stencil_corners`` (spatial neighbours with a
+        positive weight holding sea at every time used, and all of them: fewer sea corners = a partial
+        stencil, renormalised over the sea ones) and ``source`` (the hindcast file).
+        ``attrs["partial_stencil"]`` counts the points where NaN neighbours were left out.
 
     Raises
     ------
     UserError
-        A track time or position the hindcast does not cover (naming the file and the uncovered span).
+        A track time or position the hindcast does not cover (naming the file and the uncovered span), or
+        one whose neighbours are all land or ice (naming the time and the place).
     """
     st, t = _stencil(hc, times, lat, lon)
     cols: dict[str, np.ndarray] = {"time": pd.DatetimeIndex(t).tz_localize("UTC")}
     partial = np.zeros(t.size, bool)
+    sea = None
+    if "hs" in hc.bulk:
+        hs = _flat(hc, "hs")
+        n_corners, n_sea, any_sea = _sea_corners(hs, st)
+        if not any_sea.all():
+            _no_sea_error(hc, t, lat, lon, n_corners, any_sea)
+        sea = np.isfinite(hs)
     for name in hc.bulk.data_vars:
         v = _flat(hc, name)
+        if sea is not None:
+            v = np.where(sea, v, np.nan)  # land / ice corners are left out of every variable
         if name.endswith("dir_from_deg"):
             rad = np.deg2rad(v)
             s, p1 = _weighted(np.sin(rad), st)
@@ -960,6 +1026,8 @@ def at_track(
             out, p1 = _weighted(v, st)
         partial |= p1 & np.isfinite(out)
         cols[name] = out
+    if sea is not None:
+        cols["sea_corners"], cols["stencil_corners"] = n_sea, n_corners
     df = pd.DataFrame(cols)
     df["source"] = hc.source
     df.attrs["partial_stencil"] = int(partial.sum())
@@ -976,7 +1044,7 @@ def spectrum_at(hc: Hindcast, time, lat: float | None = None, lon: float | None 
     when a wind sea dies within an hour); the factor makes the spectrum's Hs follow the bulk Hs of
     :func:`at_track` and is exactly 1 on a node (a file's own spectrum is returned unchanged). The shape is
     the energy-weighted mix of the neighbours. Corners without a spectrum (all NaN, or NaN bulk Hs such
-    as ERA5 land points) are left out.
+    as ERA5 land points) are left out; none left is a UserError naming the time and the place.
     """
     if hc.spectra is None:
         return None
@@ -1020,11 +1088,10 @@ def spectrum_at(hc: Hindcast, time, lat: float | None = None, lon: float | None 
                 whs2 += w[a, b] * hs[it[a], isp[b]] ** 2
     coords = {"freq": spec["freq"].values, "dir": spec["dir"].values}
     if wsum == 0.0:
-        data = np.full((coords["freq"].size, coords["dir"].size), np.nan)
-    else:
-        data = total / wsum
-        if whs2 > 0.0:
-            data = data * ((whs / wsum) ** 2 / (whs2 / wsum))
+        _no_sea_error(hc, t, lat, lon, np.array([int((ws > 0).sum())]), np.array([False]))
+    data = total / wsum
+    if whs2 > 0.0:
+        data = data * ((whs / wsum) ** 2 / (whs2 / wsum))
     out = xr.DataArray(data, dims=("freq", "dir"), coords=coords, name="efth", attrs=dict(spec.attrs))
     out = out.assign_coords(time=t[0])
     if lat is not None and lon is not None:
