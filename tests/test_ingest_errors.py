@@ -114,3 +114,77 @@ def test_non_monotonic_time_is_repaired_and_counted(tmp_path):
     assert res.returncode == 0, res.stderr
     assert "non monotonic repaired 2" in res.stdout or "non monotonic repaired 1" in res.stdout
     assert "duplicates removed 1" in res.stdout
+
+
+# ------------------------------------------------------------------------------------------- issue 19
+
+
+def imu_and_odometry_bag(path):
+    """A ROS1 bag written with rosbags: an upright IMU and wheel odometry, no GNSS (a robot's bag)."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS1_NOETIC)
+    T = ts.types
+    vec, quat = T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Quaternion"]
+    t0 = int(pd.Timestamp("2026-03-14T07:00:00Z").value)
+    with Writer(path) as writer:
+        imu_c = writer.add_connection("/imu/data", "sensor_msgs/msg/Imu", typestore=ts)
+        odom_c = writer.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=ts)
+        for i in range(200):
+            ns = t0 + i * 100_000_000
+            head = T["std_msgs/msg/Header"](seq=i, stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9,
+                                                                                       nanosec=ns % 10**9),
+                                            frame_id="base_link")
+            imu = T["sensor_msgs/msg/Imu"](header=head, orientation=quat(x=0.0, y=0.01 * np.sin(i / 9), z=0.0,
+                                                                         w=np.sqrt(1 - (0.01 * np.sin(i / 9)) ** 2)),
+                                           orientation_covariance=np.zeros(9),
+                                           angular_velocity=vec(x=0.01, y=0.0, z=0.0),
+                                           angular_velocity_covariance=np.zeros(9),
+                                           linear_acceleration=vec(x=0.0, y=0.0, z=9.81),
+                                           linear_acceleration_covariance=np.zeros(9))
+            writer.write(imu_c, ns, ts.serialize_ros1(imu, "sensor_msgs/msg/Imu"))
+            pose = T["geometry_msgs/msg/PoseWithCovariance"](
+                pose=T["geometry_msgs/msg/Pose"](position=T["geometry_msgs/msg/Point"](x=0.1 * i, y=0.0, z=0.0),
+                                                 orientation=quat(x=0.0, y=0.0, z=0.0, w=1.0)),
+                covariance=np.zeros(36))
+            twist = T["geometry_msgs/msg/TwistWithCovariance"](twist=T["geometry_msgs/msg/Twist"](
+                linear=vec(x=1.0, y=0.0, z=0.0), angular=vec(x=0.0, y=0.0, z=0.0)), covariance=np.zeros(36))
+            odom = T["nav_msgs/msg/Odometry"](header=T["std_msgs/msg/Header"](seq=i, stamp=head.stamp, frame_id="odom"),
+                                              child_frame_id="base_link", pose=pose, twist=twist)
+            writer.write(odom_c, ns, ts.serialize_ros1(odom, "nav_msgs/msg/Odometry"))
+    return path
+
+
+CORPUS = ROOT / "tests" / "data" / "third_party"
+CLEAN_FAILURES = {  # case → (logs, topics, words the one line must hold)
+    "odometry without GNSS": (lambda p: [{"path": str(imu_and_odometry_bag(p / "robot.bag"))}], None,
+                              ["robot.bag", "no position", "/odom (nav_msgs/msg/Odometry) give velocity only"]),
+    "stamps in 1970": (lambda p: [{"path": str(CORPUS / "robot_localization_test2.bag")}], None,
+                       ["robot_localization_test2.bag", "topic /imu/data", "1970-01-01T00:01:07.58", "before 1990"]),
+    "wrong IMU topic": (lambda p: GOOD_LOGS, {"imu": "/imu/dta"},
+                        ["sample_trial.mcap", "topics.imu", "topic /imu/dta not in the log(s)",
+                         "/imu/data (sensor_msgs/msg/Imu)", "(sensor_msgs/msg/NavSatFix)"]),
+}
+
+
+@pytest.mark.parametrize("case", list(CLEAN_FAILURES))
+def test_clean_failures_at_ingest_are_one_line(tmp_path, case):
+    make_logs, topics, words = CLEAN_FAILURES[case]
+    path = run_yaml(tmp_path, make_logs(tmp_path))
+    if topics:
+        data = yaml.safe_load(path.read_text())
+        data["topics"] = topics
+        path.write_text(yaml.safe_dump(data))
+    from click.testing import CliRunner
+
+    from seatune.cli import stages  # noqa: F401  (registers the commands)
+    from seatune.cli.main import cli
+
+    res = CliRunner().invoke(cli, ["ingest", str(path)])  # in process: the exit code and stderr of the CLI
+    assert res.exit_code == 2, res.output
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in res.output, res.output
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+    assert not (tmp_path / "run" / "motions.parquet").exists()

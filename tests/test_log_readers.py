@@ -455,3 +455,56 @@ def test_benchmark_function_runs(written, streams):
     assert out["identical"]
     assert out["messages"] == out["plain_messages"] == sum(len(s.table) for s in streams)
     assert out["seatune_msgs_per_s"] > 0 and out["plain_msgs_per_s"] > 0
+
+
+# ------------------------------------------------------------------------------------------- issue 19
+
+
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_tf_static_is_read_as_the_sensors_mounting(tmp_path, storage):
+    """/tf_static (tf2_msgs/TFMessage, CDR) written with rosbags' rosbag2 Writer: every transform comes back with
+    its frames and values; /tf (moving frames) is listed among the topics not read."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    T = ts.types
+    stamp = T["builtin_interfaces/msg/Time"](sec=1_714_564_800, nanosec=5)
+    given = [("base_link", "imu_link", (0.5, -0.25, 3.0), (0.0, 0.0, np.sqrt(0.5), np.sqrt(0.5))),
+             ("base_link", "gnss", (10.0, 0.0, 12.0), (0.0, 0.0, 0.0, 1.0))]
+    msg = T["tf2_msgs/msg/TFMessage"](transforms=[T["geometry_msgs/msg/TransformStamped"](
+        header=T["std_msgs/msg/Header"](stamp=stamp, frame_id=parent), child_frame_id=child,
+        transform=T["geometry_msgs/msg/Transform"](translation=T["geometry_msgs/msg/Vector3"](x=t[0], y=t[1], z=t[2]),
+                                                   rotation=T["geometry_msgs/msg/Quaternion"](x=q[0], y=q[1], z=q[2],
+                                                                                              w=q[3])))
+        for parent, child, t, q in given])
+    raw = ts.serialize_cdr(msg, "tf2_msgs/msg/TFMessage")
+    plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+    with Writer(tmp_path / "bag", version=9, storage_plugin=plugin) as writer:
+        for topic in ("/tf_static", "/tf"):
+            conn = writer.add_connection(topic, "tf2_msgs/msg/TFMessage", typestore=ts)
+            writer.write(conn, 1_714_564_800 * 10**9, raw)
+    log = read_log(tmp_path / "bag")
+    got = {(s.parent, s.child): (s.translation, s.rotation) for s in log.static_transforms}
+    assert got == {(p, c): (t, q) for p, c, t, q in given}
+    assert log.skipped == {"/tf": "tf2_msgs/msg/TFMessage"} and log.topics == {}
+
+
+def test_csv_declared_units_are_converted_and_motion_names_read_as_imu_fields(tmp_path):
+    t = pd.date_range("2024-05-01T12:00:00Z", periods=5, freq="100ms")
+    df = pd.DataFrame({"t": t.strftime("%Y-%m-%dT%H:%M:%S.%fZ"), "gyro_x": [1.0, 2.0, -3.5, 0.0, 90.0],
+                       "acc_z": [1.0, 0.98, 1.02, 1.0, 0.5], "roll_rate": 0.25, "sog_kn": 10.0})
+    path = tmp_path / "mru.csv"
+    df.to_csv(path, index=False)
+    tt = read_table_log(path, time_column="t", column_map={"gyro_x": "pitch_rate", "acc_z": "imu_fz", "sog_kn": "sog"},
+                        column_units={"gyro_x": "deg/s", "acc_z": "g", "sog_kn": "knots", "absent": "deg"})
+    assert tt.table["wy"].tolist() == (df["gyro_x"] * (np.pi / 180)).tolist()  # the definitions, exactly
+    assert tt.table["az"].tolist() == (df["acc_z"] * 9.80665).tolist()
+    assert tt.table["sog"].tolist() == (df["sog_kn"] * (1852 / 3600)).tolist()
+    assert tt.table["wx"].tolist() == [0.25] * 5  # an undeclared column is read as it is
+    assert tt.table.attrs["declared_units"] == {"wy": "deg/s", "az": "g", "sog": "knots"}
+    assert tt.table.attrs["log_columns"]["wy"] == "gyro_x" and tt.table.attrs["log_columns"]["wx"] == "roll_rate"
+    log = read_log(path, table_options={"time_column": "t", "column_map": {"gyro_x": "pitch_rate"},
+                                        "column_units": {"gyro_x": "deg/s"}})
+    assert log.topics["/mru/imu"].table.attrs["declared_units"] == {"wy": "deg/s"}
+    with pytest.raises(UserError, match="'gyro_x'.*unknown unit 'rpm'"):
+        read_table_log(path, time_column="t", column_units={"gyro_x": "rpm"})

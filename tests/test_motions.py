@@ -19,11 +19,11 @@ from seatune.io.log_writers import Stream, write_csv, write_mcap
 from seatune.pipeline.motions import (
     IMU_COLUMNS,
     build_motions,
-    detect_units,
     gnss_motions,
     imu_motions,
     repair_time,
     resample,
+    unit_findings,
 )
 
 T0 = pd.Timestamp("2026-03-14T06:00:00Z")
@@ -291,30 +291,21 @@ def _motion(n=3000, dt=0.1, roll_deg=False, rate_deg=False, f_g=False):
                          "yaw_rate": np.zeros(n), "imu_fx": 0.0, "imu_fy": 0.0, "imu_fz": fz / 9.80665 if f_g else fz})
 
 
-def test_detect_units():
+def test_unit_findings_name_the_evidence_and_change_nothing():
     ref = _motion()
-    assert detect_units(ref.copy()) == []
-    df = _motion(roll_deg=True)
-    notes = detect_units(df)
-    assert len(notes) == 1 and "roll in degrees" in notes[0] and "converted" in notes[0]
-    np.testing.assert_allclose(df["roll"], ref["roll"], atol=1e-12)
-    df = _motion(rate_deg=True)
-    notes = detect_units(df)
-    assert any("roll_rate in deg/s" in n for n in notes)
-    np.testing.assert_allclose(df["roll_rate"], ref["roll_rate"], atol=1e-12)
-    df = _motion(roll_deg=True, rate_deg=True)  # consistent with each other, both in degrees
-    notes = detect_units(df)
-    assert len(notes) == 1 and "both in degrees" in notes[0]
-    np.testing.assert_allclose(df[["roll", "roll_rate"]], ref[["roll", "roll_rate"]], atol=1e-12)
-    df = _motion(f_g=True)
-    notes = detect_units(df)
-    assert any("in g" in n for n in notes)
-    np.testing.assert_allclose(df["imu_fz"], 9.81)
+    assert unit_findings(ref.copy()) == []
+    cases = [(dict(roll_deg=True), ("roll",), "deg"), (dict(rate_deg=True), ("roll_rate",), "deg/s"),
+             (dict(roll_deg=True, rate_deg=True), ("roll", "roll_rate"), "deg"), (dict(f_g=True), None, "g")]
+    for kw, cols, unit in cases:
+        df = _motion(**kw)
+        before = df.copy()
+        found = [f for f in unit_findings(df) if f.certain]
+        assert len(found) == 1 and found[0].unit == unit, (kw, found)
+        assert cols is None or found[0].columns == cols
+        pd.testing.assert_frame_equal(df, before)  # evidence only: the data are not touched
     knots = pd.DataFrame({"time": _t(np.arange(100.0)), "lat": np.zeros(100),
                           "lon": np.degrees(3.0 * np.arange(100.0) / 6378137.0), "sog": 3.0 * 3600 / 1852})
-    notes = detect_units(knots)
-    assert any("knots" in n for n in notes)
-    np.testing.assert_allclose(knots["sog"], 3.0)
+    assert [f.unit for f in unit_findings(knots)] == ["knots"]
 
 
 # ------------------------------------------------------------------------------------------------ end to end
@@ -335,10 +326,10 @@ def test_build_motions_from_an_mcap_and_a_gnss_csv(tmp_path):
     csv = write_csv(tmp_path / "gnss.csv", gnss)
     table, report = build_motions([read_log(mcap), read_log(csv)], rate_hz=10.0, max_gap_s=2.0)
     assert report.counts["duplicates_removed"] == 1 and report.counts["records"] == 1
-    assert any("in g" in w for w in report.warnings)
+    assert any("like g" in w and "left as is" in w for w in report.warnings)  # a ROS field: SI, only warned
     assert {"roll", "pitch", "heading_deg", "lat", "lon", "sog", "cog_deg", "record"} <= set(table.columns)
     np.testing.assert_allclose(table["heading_deg"], 40.0, atol=1e-9)
-    np.testing.assert_allclose(table["imu_fz"], 9.80665)
+    np.testing.assert_allclose(table["imu_fz"], 1.0)
     np.testing.assert_allclose(table["cog_deg"].dropna(), 90.0)
     with pytest.raises(UserError, match="no sensor_msgs/Imu topic"):
         build_motions([read_log(csv)])

@@ -32,6 +32,7 @@ import re
 import sqlite3
 import struct
 import time as _time
+import zlib
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -61,6 +62,7 @@ TWIST = "geometry_msgs/msg/TwistStamped"
 ODOM = "nav_msgs/msg/Odometry"
 VEC3 = "geometry_msgs/msg/Vector3Stamped"
 POINT = "geometry_msgs/msg/PointStamped"
+TF = "tf2_msgs/msg/TFMessage"  # read from /tf_static only: the sensors' mounting (StaticTransform)
 
 _NS = 1_000_000_000
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
@@ -160,6 +162,16 @@ class TopicTable:
     source: str | None = None  # the log file it came from (for messages)
 
 
+@dataclass(frozen=True)
+class StaticTransform:
+    """One transform of ``/tf_static``: the pose of ``child`` in ``parent`` (v_parent = R v_child + t)."""
+
+    parent: str
+    child: str
+    translation: tuple[float, float, float]
+    rotation: tuple[float, float, float, float]  # quaternion (x, y, z, w)
+
+
 @dataclass
 class LogContents:
     """Everything read from one log."""
@@ -169,6 +181,8 @@ class LogContents:
     topics: dict[str, TopicTable]
     warnings: list[str] = field(default_factory=list)
     truncated: bool = False
+    skipped: dict[str, str] = field(default_factory=dict)  # topic → message type of topics not read
+    static_transforms: list[StaticTransform] = field(default_factory=list)  # from /tf_static
 
     def of_type(self, msgtype: str) -> list[TopicTable]:
         """Topics of one message type (ROS1 or ROS2 spelling), largest first."""
@@ -255,6 +269,7 @@ class _Result:
         self.wanted = None if topics is None else set(topics)
         self.sinks: dict[str, _Sink] = {}
         self.skipped: dict[str, str] = {}  # topic → msgtype of topics not read (unsupported type)
+        self.tf_static: _Sink | None = None  # raw /tf_static messages, decoded one by one at the end
         self.warnings: list[str] = []
         self.truncated = False
         self.cut_note: str | None = None
@@ -271,6 +286,10 @@ class _Result:
                                      f"only its {s.msgtype} messages are read")
                 return None
             return s
+        if msgtype == TF and topic == "/tf_static" and encoding in ("cdr", "ros1"):
+            if self.tf_static is None:
+                self.tf_static = _Sink(topic, msgtype, encoding)
+            return self.tf_static
         if msgtype not in _BODY or encoding not in ("cdr", "ros1"):
             self.skipped[topic] = msgtype if encoding in ("cdr", "ros1") else f"{msgtype}, {encoding} encoding"
             return None
@@ -655,7 +674,10 @@ def _lean_stream_reader():
     from mcap.stream_reader import StreamReader
 
     class _Lean(StreamReader):
+        record_start = 0  # offset of the last record read, from where the stream started
+
         def _read_record(self, opcode, length):
+            self.record_start = self._stream.count - 9  # opcode and length are read
             if opcode == Opcode.MESSAGE_INDEX:
                 self._stream.read(length)
                 return None
@@ -667,59 +689,164 @@ def _lean_stream_reader():
 def _read_mcap(path: Path, res: _Result) -> None:
     """MCAP in file order with mcap's non-seeking stream reader (no summary, no message index needed): Schema and
     Channel records as they come, each Chunk decompressed and walked by `_McapState.scan`. A file cut short ends
-    in McapError / struct.error / EndOfFile; the complete messages of the half-written last chunk are salvaged."""
+    in McapError / struct.error / EndOfFile; the complete messages of the half-written last chunk are salvaged.
+
+    CRCs: a chunk whose contents fail its ``uncompressed_crc`` (or do not decompress) is dropped whole and named
+    in a warning (byte offset, time range); the data-section CRC of DataEnd, where written, is checked too. A chunk
+    without a CRC (0) is read up to any damage, as before."""
     from mcap.exceptions import McapError
     from mcap.records import Channel, Chunk, DataEnd, Footer, Message, Schema
 
     state = _McapState(res)
     damaged: list[str] = []
-    last_good = len(_MCAP_MAGIC)
+    dropped: list[str] = []  # chunks failing their CRC or decompression: none of their messages kept
+    resumed: list[list] = []  # [where and why, offset resumed at] of unreadable records stepped over
+    summary: list = []  # [mcap Summary or None] once looked at
+    seen: set[int] = set()  # start offsets of the chunks read
+    last_good = pos = len(_MCAP_MAGIC)
     complete = False
+    data_end = None  # (offset, crc) of DataEnd
     with open(path, "rb") as f:
         if f.read(len(_MCAP_MAGIC)) != _MCAP_MAGIC:
             raise UserError(str(path), "first bytes", "not an MCAP file (no MCAP magic)")
-        f.seek(0)
-        reader = _lean_stream_reader()(f, emit_chunks=True)
-        try:
-            for rec in reader.records:
-                if isinstance(rec, Chunk):
-                    try:
-                        data = _decompress(rec.compression, rec.data, rec.uncompressed_size, partial=False)
-                        if state.scan(data):
-                            raise ValueError("a record runs past the chunk's end")
-                    except Exception as err:  # noqa: BLE001 - a damaged chunk: keep what it gave, go on
-                        damaged.append(f"byte {last_good:,} ({_err(err)})")
-                    res.flush_large()
-                elif isinstance(rec, Message):
-                    sink = state.channels.get(rec.channel_id)
-                    if sink:
-                        sink[0](rec.data)
-                        sink[1](rec.log_time)
-                elif isinstance(rec, Schema):
-                    state.schema(rec.id, rec.name, rec.encoding)
-                elif isinstance(rec, Channel):
-                    state.channel(rec.id, rec.schema_id, rec.topic, rec.message_encoding)
-                elif isinstance(rec, DataEnd):
-                    complete = True  # everything after is summary
-                elif isinstance(rec, Footer):
-                    complete = True
-                last_good = f.tell()
-        except (McapError, struct.error, EOFError, UnicodeDecodeError, ValueError, MemoryError) as err:
-            if complete:  # a damaged summary section after DataEnd loses nothing
-                res.warnings.append(f"{path.name}: summary section damaged after the data ({_err(err)}); "
-                                    "all messages were read")
-            else:
+        while pos is not None:
+            base = 0 if pos == len(_MCAP_MAGIC) else pos
+            f.seek(base)
+            reader = _lean_stream_reader()(f, emit_chunks=True, skip_magic=base != 0)
+            at, pos = last_good, None
+            try:
+                for rec in reader.records:
+                    at = base + reader.record_start if hasattr(reader, "record_start") else last_good
+                    if isinstance(rec, Chunk):
+                        seen.add(at)
+                        try:
+                            data = _decompress(rec.compression, rec.data, rec.uncompressed_size, partial=False)
+                        except Exception as err:  # noqa: BLE001 - a chunk that does not decompress is dropped
+                            data, problem = None, f"does not decompress ({_err(err)})"
+                        else:
+                            problem = (None if not rec.uncompressed_crc or zlib.crc32(data) == rec.uncompressed_crc
+                                       else "fails its CRC")
+                        if problem is not None:
+                            _summary_channels(path, state, summary)  # the chunk may have declared channels
+                            dropped.append(f"byte {at:,}{_chunk_span(rec)} {problem}")
+                        else:
+                            try:
+                                if state.scan(data):
+                                    raise ValueError("a record runs past the chunk's end")
+                            except Exception as err:  # noqa: BLE001 - damage in a chunk without a CRC: keep what it gave
+                                damaged.append(f"byte {at:,} ({_err(err)})")
+                        res.flush_large()
+                    elif isinstance(rec, Message):
+                        sink = state.channels.get(rec.channel_id)
+                        if sink:
+                            sink[0](rec.data)
+                            sink[1](rec.log_time)
+                    elif isinstance(rec, Schema):
+                        state.schema(rec.id, rec.name, rec.encoding)
+                    elif isinstance(rec, Channel):
+                        state.channel(rec.id, rec.schema_id, rec.topic, rec.message_encoding)
+                    elif isinstance(rec, DataEnd):
+                        complete = True  # everything after is summary
+                        data_end = (at, rec.data_section_crc)
+                    elif isinstance(rec, Footer):
+                        complete = True
+                    last_good = f.tell()
+            except (McapError, struct.error, EOFError, UnicodeDecodeError, ValueError, MemoryError) as err:
+                if complete:  # a damaged summary section after DataEnd loses nothing
+                    res.warnings.append(f"{path.name}: summary section damaged after the data ({_err(err)}); "
+                                        "all messages were read")
+                    break
+                pos, lost = _resume_at(path, state, summary, seen, at)
+                if pos is not None:  # a damaged record header mid-file: go on at the next indexed chunk
+                    if not (resumed and at == base == last_good):  # else: the chunk resumed at failed at once
+                        resumed.append([f"after byte {last_good:,} ({_err(err)})", pos])
+                    resumed[-1][1] = pos
+                    dropped += [f"byte {c.chunk_start_offset:,}{_chunk_span(c)} unreachable" for c in lost]
+                    last_good = pos
+                    continue
                 res.truncated = True
                 salvaged = _salvage_mcap_tail(f, last_good, state)
                 res.cut_note = (f"file cut short (no footer) at byte {last_good:,} of {path.stat().st_size:,}: "
                                 f"{_err(err)}" + (f"; {salvaged:,} messages of the last chunk recovered"
                                                   if salvaged else ""))
+        if (data_end is not None and data_end[1] and not dropped and not resumed
+                and _crc_of(f, data_end[0]) != data_end[1]):
+            res.warnings.append(f"{path.name}: the data section fails its CRC (DataEnd at byte {data_end[0]:,}) "
+                                "although every chunk passes its own: the damage is outside the messages "
+                                "(a chunk header, a message index or a record between chunks)")
+    if resumed:
+        res.warnings.append(f"{path.name}: unreadable record(s) stepped over with the summary's chunk index: "
+                            + "; ".join(f"{note}, resumed at byte {at:,}" for note, at in resumed[:5]))
+    if dropped:
+        kept = res.count + sum(len(s.raw) for s in res.sinks.values())
+        if not kept and not res.truncated:
+            raise UserError(str(path), f"chunk at {dropped[0]}", f"nothing readable: every chunk is damaged "
+                            f"({len(dropped)} dropped)")
+        res.warnings.append(f"{path.name}: {len(dropped)} damaged chunk(s) dropped with all their messages: "
+                            + "; ".join(dropped[:5]) + ("; …" if len(dropped) > 5 else ""))
     if damaged:
         res.warnings.append(f"{path.name}: {len(damaged)} damaged chunk(s) read up to the damage: "
                             + "; ".join(damaged[:5]))
     if state.unknown_channel:
         res.warnings.append(f"{path.name}: {state.unknown_channel:,} messages on channels never declared "
                             "were skipped")
+
+
+def _chunk_span(rec) -> str:
+    """" (messages <start> to <end> UTC)" of a Chunk record, or "" when its times are not plausible."""
+    try:
+        a, b = (pd.Timestamp(int(t), unit="ns", tz="UTC") for t in (rec.message_start_time, rec.message_end_time))
+    except (ValueError, OverflowError, pd.errors.OutOfBoundsDatetime):
+        return ""
+    return f" (messages {a:%Y-%m-%d %H:%M:%S} to {b:%H:%M:%S} UTC)"
+
+
+def _crc_of(f, size: int) -> int:
+    """CRC-32 of the first `size` bytes of the open file (the MCAP data section), read in 16 MiB blocks."""
+    f.seek(0)
+    crc = 0
+    while size > 0:
+        block = f.read(min(size, 1 << 24))
+        if not block:
+            break
+        crc = zlib.crc32(block, crc)
+        size -= len(block)
+    return crc
+
+
+def _summary_channels(path: Path, state: _McapState, cache: list):
+    """The summary section (None when absent or unsound; looked up once, kept in `cache`), its schemas and
+    channels registered, so that a dropped chunk that declared them does not orphan later chunks' messages."""
+    if cache:
+        return cache[0]
+    from mcap.reader import make_reader
+
+    try:
+        with open(path, "rb") as f:
+            summary = make_reader(f).get_summary()
+    except Exception:  # noqa: BLE001 - no (sound) summary: channels come only from the chunks
+        summary = None
+    cache.append(summary)
+    if summary is not None:
+        for sid, sch in summary.schemas.items():
+            state.schema(sid, sch.name, sch.encoding)
+        for cid, ch in summary.channels.items():
+            state.channel(cid, ch.schema_id, ch.topic, ch.message_encoding)
+    return summary
+
+
+def _resume_at(path: Path, state: _McapState, cache: list, seen: set[int], after: int) -> tuple[int | None, list]:
+    """(offset of the next indexed chunk not read yet that starts after `after`, the indexed chunks stepped over)
+    from the summary's chunk index; (None, []) without a sound summary."""
+    summary = _summary_channels(path, state, cache)
+    if summary is None:
+        return None, []
+    todo = sorted((c for c in summary.chunk_indexes if c.chunk_start_offset not in seen),
+                  key=lambda c: c.chunk_start_offset)
+    nxt = next((c for c in todo if c.chunk_start_offset > after), None)
+    if nxt is None:
+        return None, []
+    return nxt.chunk_start_offset, [c for c in todo if c.chunk_start_offset < nxt.chunk_start_offset]
 
 
 def _err(err: BaseException) -> str:
@@ -1118,6 +1245,25 @@ def _scan_sqlite_pages(buf: bytes) -> tuple[list[tuple], list[tuple]]:
 
 _ALIASES = {"lat": "latitude", "lon": "longitude", "alt": "altitude", "vel_east": "vx", "vel_north": "vy",
             "vel_up": "vz"}
+# motion-table names of IMU fields: a column mapped to (or named) roll_rate is read as the IMU's wx, etc.
+_MOTION_FIELDS = {"roll_rate": "wx", "pitch_rate": "wy", "yaw_rate": "wz", "imu_fx": "ax", "imu_fy": "ay",
+                  "imu_fz": "az"}
+_IMU_ANGLES = ("roll", "pitch", "heading_deg")  # attitude given as angles by a table export (seatune convention)
+
+#: Units a run YAML may declare for a table-log column: unit → (quantity, factor to SI).
+COLUMN_UNITS: dict[str, tuple[str, float]] = {
+    "rad": ("angle", 1.0), "deg": ("angle", np.pi / 180.0),
+    "rad/s": ("angular rate", 1.0), "deg/s": ("angular rate", np.pi / 180.0),
+    "m/s^2": ("acceleration", 1.0), "g": ("acceleration", 9.80665),  # standard gravity
+    "m/s": ("speed", 1.0), "knots": ("speed", 1852.0 / 3600.0), "km/h": ("speed", 1.0 / 3.6),
+    "m": ("length", 1.0),
+}
+#: Quantity of each table field a unit can be declared for (after renaming).
+FIELD_QUANTITY: dict[str, str] = {
+    "roll": "angle", "pitch": "angle", **dict.fromkeys(("wx", "wy", "wz"), "angular rate"),
+    **dict.fromkeys(("ax", "ay", "az"), "acceleration"), **dict.fromkeys(("vx", "vy", "vz", "sog"), "speed"),
+    **dict.fromkeys(("x", "y", "z", "altitude"), "length"),
+}
 _KNOWN = set().union(*MSGTYPES.values()) | {"roll", "pitch", "heading_deg", "yaw_rate", "roll_rate", "pitch_rate",
                                              "imu_fx", "imu_fy", "imu_fz", "lat", "lon", "sog", "cog_deg"}
 _UNIX_RE = re.compile(r"^\s*[+-]?\d+(\.\d*)?\s*$")
@@ -1129,6 +1275,7 @@ def read_table_log(
     time_column: str = "time",
     column_map: dict[str, str] | None = None,
     time_format: str = "auto",
+    column_units: dict[str, str] | None = None,
 ) -> TopicTable:
     """A CSV or Parquet log as one table.
 
@@ -1142,11 +1289,16 @@ def read_table_log(
     column_map : dict, optional
         Log column → seatune name, e.g. ``{"Roll": "roll", "GPS_Lat": "latitude"}``. Columns without an entry
         keep their name, except the common aliases ``lat lon alt vel_east vel_north vel_up`` →
-        ``latitude longitude altitude vx vy vz`` (ENU velocity).
+        ``latitude longitude altitude vx vy vz`` (ENU velocity). Motion-table names ``roll_rate pitch_rate
+        yaw_rate imu_fx imu_fy imu_fz`` become the IMU fields ``wx wy wz ax ay az``.
     time_format : str
         ``"auto"``: a datetime column, ISO 8601 strings (no zone = UTC, said so), or Unix time (decimal seconds,
         exact to the ns; values above 1e11 / 1e14 / 1e17 are taken as ms / µs / ns, said so); ``"iso"``;
         ``"unix"`` (seconds), ``"unix_ms"``, ``"unix_us"``, ``"unix_ns"``; or a ``strftime`` pattern (UTC).
+    column_units : dict, optional
+        Log column → its unit (a key of :data:`COLUMN_UNITS`, e.g. ``{"gyro_x": "deg/s"}``): the column is
+        converted to SI (rad, rad/s, m/s², m/s, m). Columns declared so are listed in
+        ``table.attrs["declared_units"]``; ``table.attrs["log_columns"]`` maps every field to its log column.
 
     Returns
     -------
@@ -1184,11 +1336,11 @@ def read_table_log(
         if c == time_column:
             rename[c] = "time"
         elif c in cmap:
-            rename[c] = cmap[c]
+            rename[c] = _MOTION_FIELDS.get(cmap[c], cmap[c])
         elif c in _ALIASES and _ALIASES[c] not in raw.columns and _ALIASES[c] not in cmap.values():
             rename[c] = _ALIASES[c]
         else:
-            rename[c] = c
+            rename[c] = _MOTION_FIELDS.get(c, c)
     names = list(rename.values())
     dupes = sorted({v for v in names if names.count(v) > 1})
     if dupes:
@@ -1207,6 +1359,7 @@ def read_table_log(
         col = _numeric(raw[c], p, c, line_of, notes)
         if col is not None:
             data[c] = col
+    declared = _declare_units(p, data, rename, column_units or {})
     keep = ~np.isnat(times)
     if not keep.all():
         notes.append(f"{p.name}: {int((~keep).sum()):,} rows without a time dropped")
@@ -1215,7 +1368,31 @@ def read_table_log(
     if "status" in df.columns and df["status"].notna().all() and (df["status"] % 1 == 0).all():
         df["status"] = df["status"].astype(np.int8)
     df.attrs["warnings"] = notes
+    df.attrs["declared_units"] = declared
+    df.attrs["log_columns"] = {new: old for old, new in rename.items() if new in data}
     return TopicTable(f"/{p.stem}", _table_msgtype(df.columns), "", df, str(p))
+
+
+def _declare_units(p: Path, data: dict[str, np.ndarray], rename: dict[str, str], units: dict[str, str]) -> dict:
+    """Convert, in place, the columns whose unit the run YAML declares; {field: declared unit}."""
+    declared = {}
+    for column, unit in units.items():
+        name = rename.get(column)
+        if name is None or name not in data:
+            continue  # not in this file (a declaration shared by several logs)
+        if unit not in COLUMN_UNITS:
+            raise UserError(str(p), f"column {column!r}", f"unknown unit {unit!r} (one of {', '.join(COLUMN_UNITS)})")
+        quantity, factor = COLUMN_UNITS[unit]
+        want = FIELD_QUANTITY.get(name)
+        if want is None:
+            raise UserError(str(p), f"column {column!r}", f"{name} is not a column whose unit can be declared")
+        if want != quantity:
+            fits = ", ".join(u for u, (q, _) in COLUMN_UNITS.items() if q == want)
+            raise UserError(str(p), f"column {column!r}", f"{name} takes a unit of {want} ({fits}), not {unit!r}")
+        if factor != 1.0:
+            data[name] = data[name] * factor
+        declared[name] = unit
+    return declared
 
 
 def _read_csv(p: Path, time_column: str) -> tuple[pd.DataFrame, Callable[[int], str]]:
@@ -1371,7 +1548,7 @@ def _split_table(tt: TopicTable) -> tuple[dict[str, TopicTable], list[str]]:
     used = {"time", "log_time"}
     stem = tt.topic
     groups = []
-    if cols & {"wx", "wy", "wz", "ax", "ay", "az"}:
+    if cols & {"wx", "wy", "wz", "ax", "ay", "az", "roll", "pitch"}:
         groups.append(("imu", IMU))
     if {"latitude", "longitude"} <= cols:
         groups.append(("fix", FIX))
@@ -1383,7 +1560,8 @@ def _split_table(tt: TopicTable) -> tuple[dict[str, TopicTable], list[str]]:
         fields = list(MSGTYPES[msgtype])
         if msgtype == TWIST and any(g[1] == IMU for g in groups):
             fields = ["vx", "vy", "vz"]  # wx wy wz belong to the IMU
-        present = [c for c in fields if c in cols]
+        extra = [c for c in _IMU_ANGLES if c in cols] if msgtype == IMU else []
+        present = [c for c in fields + extra if c in cols]
         sub = df[["time", "log_time", *present]]
         sub = sub[sub[present].notna().any(axis=1)].reset_index(drop=True)
         for c in MSGTYPES[msgtype]:
@@ -1391,8 +1569,9 @@ def _split_table(tt: TopicTable) -> tuple[dict[str, TopicTable], list[str]]:
                 sub[c] = np.int8(0) if c == "status" else np.nan
         if "status" in sub.columns and sub["status"].notna().all():
             sub["status"] = sub["status"].astype(np.int8)
-        sub = sub[["time", "log_time", *MSGTYPES[msgtype]]]
-        sub.attrs = {}
+        sub = sub[["time", "log_time", *MSGTYPES[msgtype], *extra]]
+        sub.attrs = {k: {c: v for c, v in df.attrs.get(k, {}).items() if c in present}
+                     for k in ("declared_units", "log_columns")}
         used.update(present)
         out[f"{stem}/{name}"] = TopicTable(f"{stem}/{name}", msgtype, tt.frame_id, sub, tt.source)
     notes = list(tt.table.attrs.get("warnings", []))
@@ -1483,7 +1662,36 @@ def read_log(
         warnings.insert(0, f"{p.name}: {res.cut_note}: read {n:,} messages up to {up_to}")
     if topics is not None:
         _check_topics(p, topics, {**tables, **dict.fromkeys(res.skipped)})
-    return LogContents(p, fmt, tables, warnings, res.truncated)
+    static = _static_transforms(res.tf_static, p, warnings)
+    return LogContents(p, fmt, tables, warnings, res.truncated, dict(res.skipped), static)
+
+
+def _static_transforms(sink: _Sink | None, p: Path, warnings: list[str]) -> list[StaticTransform]:
+    """The transforms of the /tf_static messages (the last one of each child frame wins)."""
+    if sink is None or not sink.raw:
+        return []
+    ts = _typestore(sink.encoding)
+    if TF not in ts.types:  # ROS1 Noetic's store lacks tf2_msgs; the definition is the same in both
+        from rosbags.typesys import get_types_from_msg
+
+        ts.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", TF))
+    deser = ts.deserialize_ros1 if sink.encoding == "ros1" else ts.deserialize_cdr
+    out: dict[str, StaticTransform] = {}
+    bad = 0
+    for raw in sink.raw:
+        try:
+            msg = deser(raw, TF)
+        except Exception:  # noqa: BLE001 - a corrupt message is skipped and counted
+            bad += 1
+            continue
+        for tr in msg.transforms:
+            t, r = tr.transform.translation, tr.transform.rotation
+            out[tr.child_frame_id.strip("/")] = StaticTransform(tr.header.frame_id.strip("/"),
+                                                                 tr.child_frame_id.strip("/"),
+                                                                 (t.x, t.y, t.z), (r.x, r.y, r.z, r.w))
+    if bad:
+        warnings.append(f"{p.name}: {bad} corrupt /tf_static message(s) skipped")
+    return list(out.values())
 
 
 def _check_topics(p: Path, topics: list[str], have: dict) -> None:

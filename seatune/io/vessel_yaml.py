@@ -12,7 +12,7 @@ import math
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Discriminator, Field, Tag, field_validator, model_validator
 
 from seatune.errors import UserError
 from seatune.io.yaml_config import NonNegativeFloat, PositiveFloat, read_yaml, validate
@@ -148,6 +148,42 @@ class ChannelSpec(_Strict):
         return self
 
 
+class EulerRotation(_Strict):
+    """ZYX (yaw, then pitch, then roll) angles in degrees, the attitude convention of DESIGN §3."""
+
+    roll_deg: float = 0.0
+    pitch_deg: float = 0.0
+    yaw_deg: float = 0.0
+
+
+class SensorSpec(_Strict):
+    """How an instrument is mounted; its lever arm is the `point` of its channels."""
+
+    # sensor axes → body axes (v_body = R v_sensor): a quaternion [x, y, z, w] or {roll_deg, pitch_deg, yaw_deg}
+    rotation: Annotated[Annotated[tuple[float, float, float, float], Tag("quaternion")]
+                        | Annotated[EulerRotation, Tag("euler")],
+                        Discriminator(lambda v: "euler" if isinstance(v, dict | EulerRotation) else "quaternion")
+                        ] | None = None
+
+    @field_validator("rotation")
+    @classmethod
+    def _unit_quaternion(cls, v):
+        if isinstance(v, tuple) and abs(math.sqrt(sum(c * c for c in v)) - 1.0) > 1e-6:
+            raise ValueError(f"a rotation quaternion [x, y, z, w] must have unit norm, got {list(v)}")
+        return v
+
+    def mounting(self):
+        """The rotation sensor → body as a scipy Rotation (None when not given)."""
+        from scipy.spatial.transform import Rotation
+
+        if self.rotation is None:
+            return None
+        if isinstance(self.rotation, tuple):
+            return Rotation.from_quat(self.rotation)
+        r = self.rotation
+        return Rotation.from_euler("ZYX", [r.yaw_deg, r.pitch_deg, r.roll_deg], degrees=True)
+
+
 class PriorSpec(_Strict):
     mean: float | None = None  # default: the loading value
     std: PositiveFloat
@@ -173,6 +209,7 @@ class VesselSpec(_Strict):
     bem: BemSpec = BemSpec()
     loading: LoadingSpec
     channels: list[ChannelSpec] = []
+    sensors: dict[str, SensorSpec] = {}  # per sensor tag of the channels: its mounting rotation
     priors: dict[str, PriorSpec] = {}
     # physical effects added by `seatune diagnose` ({kind: <effect>, <parameters>}); tuning and prediction solve
     # the vessel with the model-side ones (moonpool, anti_roll_tank, imu_lever_arm, imu_misalignment)
@@ -207,6 +244,11 @@ def _check_consistency(spec: VesselSpec, source: str) -> None:
     for i, name in enumerate(names):
         if name in names[:i]:
             raise UserError(source, f"channels.{i}.name", f"duplicate channel name {name!r}")
+    tags = sorted({c.sensor for c in spec.channels if c.sensor})
+    for name in spec.sensors:
+        if name not in tags:
+            raise UserError(source, f"sensors.{name}", f"no channel has sensor: {name} (sensor tags: "
+                                                       f"{', '.join(tags) or 'none'})")
     if spec.hull.kind in ("parametric", "mesh") and not spec.drafts:
         raise UserError(source, "drafts", "a parametric or mesh hull needs drafts: [..] for the BEM")
     if spec.hull.kind == "parametric" and spec.drafts and max(spec.drafts) >= spec.hull.parametric.depth:

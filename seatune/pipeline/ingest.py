@@ -13,6 +13,7 @@ WAVE_UNITS = {"time": "UTC", "hs": "m", "tp": "s", "dir_from_deg": "deg", "sprea
               "tm01": "s", "wind_hs": "m", "wind_tp": "s", "wind_dir_from_deg": "deg", "swell_hs": "m",
               "swell_tp": "s", "swell_dir_from_deg": "deg", "wind_mwp": "s", "swell_mwp": "s", "source": "",
               "lat": "deg", "lon": "deg"}
+WAVE_UNITS.update({"sea_corners": "dimensionless", "stencil_corners": "dimensionless"})  # neighbours used / all
 
 
 SOURCE_FIELDS = {"roll": "orientation / qx..qw", "pitch": "orientation / qx..qw",
@@ -29,24 +30,28 @@ def read_logs(run: Run, echo=print) -> list:
     from rich.progress import track
 
     from seatune.io.log_readers import read_log
+    from seatune.io.run_yaml import column_options
 
     out = []
     bar = track(run.logs, description="reading logs", transient=True, console=None,
                 disable=not sys.stderr.isatty())
     for path, log in bar:
-        options = {"time_column": log.time_column, "column_map": log.columns or None}
+        names, units = column_options(run.spec.ingest.columns, log.columns)
+        options = {"time_column": log.time_column, "column_map": names or None, "column_units": units or None}
         out.append(read_log(path, format=log.format, table_options=options))
     return out
 
 
-def build_motions(run: Run, logs: list, heave_names: dict[str, str]) -> tuple[pd.DataFrame, dict, list[str]]:
+def build_motions(run: Run, logs: list, heave_names: dict[str, str],
+                  mounting=(None, "imu")) -> tuple[pd.DataFrame, dict, list[str]]:
     """The motion table on a uniform grid, with the counts of what was repaired and the warnings."""
     from seatune.pipeline.motions import build_motions as assemble
 
     t = run.spec.topics
+    mounting, sensor = mounting
     motions, report = assemble(logs, rate_hz=run.spec.ingest.rate_hz, max_gap_s=run.spec.ingest.max_gap_s,
                                frame=run.spec.ingest.frame, imu_topic=t.imu, fix_topic=t.gnss_fix,
-                               vel_topic=t.gnss_vel or t.odometry)
+                               vel_topic=t.gnss_vel or t.odometry, mounting=mounting, sensor=sensor)
     counts = dict(report.counts)
     for column, field in SOURCE_FIELDS.items():
         if column in motions and not np.isfinite(motions[column].to_numpy()).any():
@@ -59,7 +64,31 @@ def build_motions(run: Run, logs: list, heave_names: dict[str, str]) -> tuple[pd
         counts["samples_outside_imu"] = int(imu.size - (last - first))
         motions = motions.iloc[first:last].reset_index(drop=True)
     motions = motions.rename(columns={**heave_names, **run.spec.channels})
-    return motions, counts, list(report.warnings)
+    if "lat" not in motions or not np.isfinite(motions["lat"].to_numpy()).any():
+        vel = [f"{tt.topic} ({tt.msgtype})" for log in logs for tt in log.topics.values()
+               if tt.msgtype in ("nav_msgs/msg/Odometry", "geometry_msgs/msg/TwistStamped")]
+        raise UserError(", ".join(str(log.path) for log in logs), None,
+                        "no position (no NavSatFix topic or GNSS CSV with latitude/longitude"
+                        + (f"; {', '.join(vel)} give velocity only" if vel else "")
+                        + "): the hindcast cannot be placed on the track")
+    return motions, counts, list(report.notes) + list(report.warnings)
+
+
+def imu_mounting(run: Run, model):
+    """(rotation sensor → body or None, sensor tag) of the IMU: the vessel YAML's ``sensors.<tag>.rotation`` of
+    the tag carried by the channels the IMU's columns fill."""
+    from seatune.pipeline.motions import IMU_COLUMNS
+
+    names = {run.spec.channels.get(c, c) for c in IMU_COLUMNS}
+    tags = sorted({c.sensor for c in model.spec.channels if c.name in names and c.sensor})
+    sensors = model.spec.sensors
+    given = [tag for tag in tags if tag in sensors and sensors[tag].rotation is not None]
+    if len(given) > 1:
+        raise UserError(str(run.vessel_path), "sensors", f"the IMU's channels belong to several sensors with a "
+                                                         f"rotation ({', '.join(given)}): give one")
+    if given:
+        return sensors[given[0]].mounting(), given[0]
+    return None, tags[0] if tags else "imu"
 
 
 def heave_column_names(model) -> dict[str, str]:
@@ -103,6 +132,7 @@ def ingest(run: Run, model, echo=print, force: bool = False) -> dict:
     """Run the stage; returns a summary dict. Skips when the artefacts are fresh."""
     from seatune.io.parquet import write_table
     from seatune.io.rundir import fingerprint, is_fresh
+    from seatune.physics.plausibility import Limits, gate_angles, gate_logs
 
     inputs = [p for p, _ in run.logs] + [run.hindcast_path, run.vessel_path]
     settings = {"logs": [log.model_dump() for log in run.spec.logs], "topics": run.spec.topics.model_dump(),
@@ -113,7 +143,18 @@ def ingest(run: Run, model, echo=print, force: bool = False) -> dict:
     if not force and is_fresh([out_m, out_w], fp):
         return {"skipped": True}
     logs = read_logs(run)
-    motions, counts, warnings = build_motions(run, logs, heave_column_names(model))
+    limits = Limits(**run.spec.ingest.plausibility.model_dump())
+    gated, gate_warnings = gate_logs(logs, limits)  # implausible samples masked before they are resampled
+    motions, counts, warnings = build_motions(run, logs, heave_column_names(model), imu_mounting(run, model))
+    motions, angles = gate_angles(motions, limits)
+    for c in angles:
+        if not motions[c].notna().any():
+            raise UserError(str(run.path), "ingest.plausibility.max_angle_deg", f"every {c} sample is beyond "
+                            f"±{limits.max_angle_deg:g}°: an IMU mounted rotated (give sensors.<tag>.rotation in "
+                            "the vessel YAML) or a wrong frame (ingest.frame)")
+    counts.update(gated | {f"implausible attitude {c}": k for c, k in angles.items()})
+    warnings += gate_warnings + ([f"attitude beyond ±{limits.max_angle_deg:g}° masked: "
+                                  + ", ".join(f"{c} {k:,}" for c, k in angles.items())] if angles else [])
     if "lat" not in motions:
         raise UserError(str(run.path), "logs", "no position (NavSatFix or GNSS CSV): the hindcast cannot be "
                                                 "placed on the track")
@@ -124,6 +165,10 @@ def ingest(run: Run, model, echo=print, force: bool = False) -> dict:
     write_table(waves, out_w, {c: WAVE_UNITS.get(c, "") for c in waves.columns}, {"fingerprint": fp})
     for w in warnings:
         echo(f"warning: {w}")
+    partial = int((waves["sea_corners"] < waves["stencil_corners"]).sum()) if "sea_corners" in waves else 0
+    if partial:
+        echo(f"hindcast: {partial} of {len(waves)} track hours next to land or ice (a partial stencil: the sea "
+             "corners' weights renormalised)")
     return {"skipped": False, "samples": len(motions), "records": int(motions["record"].nunique()),
             "hours": (motions["time"].iloc[-1] - motions["time"].iloc[0]).total_seconds() / 3600,
-            "counts": counts, "hindcast_hours": len(waves)}
+            "counts": counts, "hindcast_hours": len(waves), "partial_stencil_hours": partial}

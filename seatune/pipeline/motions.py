@@ -27,12 +27,16 @@ __all__ = [
     "IMU_COLUMNS",
     "UNITS",
     "IngestReport",
+    "UnitFinding",
     "build_motions",
-    "detect_units",
+    "check_units",
     "gnss_motions",
     "imu_motions",
+    "mounting_warnings",
     "repair_time",
     "resample",
+    "tf_mounting",
+    "unit_findings",
 ]
 
 IMU_COLUMNS = ("roll", "pitch", "heading_deg", "roll_rate", "pitch_rate", "yaw_rate", "imu_fx", "imu_fy", "imu_fz")
@@ -63,6 +67,7 @@ class IngestReport:
 
     counts: dict[str, int] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)  # what was applied (the IMU mounting and where it came from)
 
     def add(self, counts: dict[str, int]) -> None:
         for k, v in counts.items():
@@ -93,7 +98,8 @@ def _seconds(time: pd.Series) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------------- IMU
 
 
-def imu_motions(imu: TopicTable | LogContents | None, frame: str = "FLU") -> pd.DataFrame:
+def imu_motions(imu: TopicTable | LogContents | None, frame: str = "FLU",
+                mounting: Rotation | None = None) -> pd.DataFrame:
     """Attitude, body rates and specific force from a ``sensor_msgs/msg/Imu`` topic.
 
     Parameters
@@ -105,6 +111,9 @@ def imu_motions(imu: TopicTable | LogContents | None, frame: str = "FLU") -> pd.
         reports an FRD body in a NED world (marine MRUs, Fossen); converted as R_ENU←FLU = A R_NED←FRD B with
         A = [[0,1,0],[1,0,0],[0,0,−1]] (NED → ENU) and B = diag(1,−1,−1) (FLU → FRD), and body vectors
         (ω, f) as B·v. ``"auto"``: NED when ``frame_id`` ends in ``_ned`` (REP-103's rule for NED frames).
+    mounting : scipy Rotation, optional
+        Sensor (FLU) → body rotation M (v_body = M v_sensor, the vessel YAML's ``sensors.<tag>.rotation`` or
+        /tf_static): rates and specific force become M·v, the attitude R_ENU←body = R_ENU←sensor M⁻¹.
 
     Returns
     -------
@@ -136,6 +145,8 @@ def imu_motions(imu: TopicTable | LogContents | None, frame: str = "FLU") -> pd.
     f = t.reindex(columns=["ax", "ay", "az"]).to_numpy(dtype=np.float64)
     if ned:
         w, f = w * _FLIP_YZ, f * _FLIP_YZ
+    if mounting is not None:
+        w, f = mounting.apply(w), mounting.apply(f)
     norm = np.linalg.norm(q, axis=1)
     ok = np.isfinite(norm) & (np.abs(norm - 1.0) < 0.1)  # a unit quaternion (all zeros = orientation unknown)
     roll = np.full(n, np.nan)
@@ -145,6 +156,8 @@ def imu_motions(imu: TopicTable | LogContents | None, frame: str = "FLU") -> pd.
         r = Rotation.from_quat(q[ok])  # ROS order (x, y, z, w) = scipy's scalar-last default
         if ned:
             r = _A_ENU_NED * r * _B_FRD_FLU
+        if mounting is not None:
+            r = r * mounting.inv()
         ypr = r.as_euler("ZYX")  # intrinsic: yaw about z, pitch about y', roll about x''
         yaw[ok], pitch[ok], roll[ok] = ypr[:, 0], ypr[:, 1], ypr[:, 2]
     heading = np.mod(90.0 - yaw * _DEG, 360.0)
@@ -153,6 +166,13 @@ def imu_motions(imu: TopicTable | LogContents | None, frame: str = "FLU") -> pd.
         for c, arr in (("roll", roll), ("pitch", pitch), ("heading_deg", heading)):
             if c in given:
                 arr[~ok] = t[c].to_numpy(dtype=np.float64)[~ok]
+        if mounting is not None:  # the given angles are the sensor's attitude too
+            rows = ~ok & np.isfinite(roll) & np.isfinite(pitch)
+            yaw_given = np.radians(90.0 - np.nan_to_num(heading[rows]))
+            r = Rotation.from_euler("ZYX", np.column_stack([yaw_given, pitch[rows], roll[rows]])) * mounting.inv()
+            ypr = r.as_euler("ZYX")
+            pitch[rows], roll[rows] = ypr[:, 1], ypr[:, 2]
+            heading[rows] = np.where(np.isfinite(heading[rows]), np.mod(90.0 - ypr[:, 0] * _DEG, 360.0), np.nan)
     out = pd.DataFrame({
         "time": t["time"].reset_index(drop=True),
         "roll": roll,
@@ -454,6 +474,21 @@ def resample(tables: Sequence[pd.DataFrame], rate_hz: float, max_gap_s: float) -
 
 # ---------------------------------------------------------------------------------------------------- units
 
+# motion-table column → the table-log field it comes from (for the column named in an error)
+_FIELD = {"roll": "roll", "pitch": "pitch", "roll_rate": "wx", "pitch_rate": "wy", "yaw_rate": "wz",
+          "imu_fx": "ax", "imu_fy": "ay", "imu_fz": "az", "sog": "vx"}
+
+
+@dataclass
+class UnitFinding:
+    """Evidence that columns are not in SI: ``unit`` is what they look like (deg, deg/s, g, knots, km/h);
+    ``certain`` = unambiguous (the old guesser converted these), else only "probably"."""
+
+    columns: tuple[str, ...]
+    unit: str
+    evidence: str
+    certain: bool = True
+
 
 def _slope(x: np.ndarray, y: np.ndarray) -> float | None:
     """Least-squares slope of y on x through the origin, None without enough signal."""
@@ -472,41 +507,30 @@ def _p99(v: np.ndarray) -> float:
     return float(np.percentile(v, 99)) if len(v) else float("nan")
 
 
-def detect_units(df: pd.DataFrame) -> list[str]:
-    """Check the units of a motion table and convert, in place, where the evidence is unambiguous.
+def unit_findings(df: pd.DataFrame, *, angles: bool = True) -> list[UnitFinding]:
+    """What the numbers say about the units of a motion table; changes nothing.
 
-    - specific force ``imu_fx/fy/fz``: the median of |f| is ≈ 9.81 m/s² at sea; ≈ 1 → the sensor reports in g
-      → × 9.80665 (converted);
-    - ``roll/pitch`` vs ``roll_rate/pitch_rate``: the slope of d(angle)/dt against the rate is 1 for consistent
-      units, 57.3 for angles in degrees with rates in rad/s, 1/57.3 for the reverse — converted. Without the
-      pair, magnitude alone: |angle| 99th percentile > 0.8 rad (46°) → probably degrees (reported), > 1.6 rad
-      (92°, a capsized ship) and ≤ 180 → degrees (converted); likewise rates: > 1 rad/s reported, > 1.6 converted;
-    - ``heading_deg`` all within ±2π with a spread → maybe radians (reported only);
-    - ``sog`` vs the speed from successive ``lat/lon``: ratio ≈ 1.944 (knots) or 3.6 (km/h) → converted.
+    - specific force ``imu_fx/fy/fz``: median |f| ≈ 1 instead of 9.81 m/s² → in g;
+    - ``roll/pitch`` vs ``roll_rate/pitch_rate``: slope of d(angle)/dt on the rate 57.3 → angle in degrees,
+      1/57.3 → rate in deg/s, 1 with |angle| 99th percentile > 1.6 (92° if radians) → both in degrees; without
+      the pair, |angle| 99th percentile > 1.6 (and ≤ 180) → degrees, > 0.8 → probably; rates: > 1.6 rad/s →
+      deg/s, > 1.0 → probably;
+    - ``heading_deg`` all within ±2π with a spread → probably radians;
+    - ``sog`` vs the speed from successive ``lat/lon``: ratio 1.944 → knots, 3.6 → km/h.
 
-    Returns
-    -------
-    list of str
-        One message per finding ("... converted ..." when the column was changed).
+    ``angles=False`` skips the angle checks (angles computed from a quaternion cannot be in degrees).
     """
-    notes: list[str] = []
+    out: list[UnitFinding] = []
     n = len(df)
     if n == 0:
-        return notes
-
-    fcols = [c for c in ("imu_fx", "imu_fy", "imu_fz") if c in df.columns]
+        return out
+    fcols = tuple(c for c in ("imu_fx", "imu_fy", "imu_fz") if c in df.columns)
     if fcols:
-        f = df[fcols].to_numpy(dtype=np.float64)
-        norm = np.sqrt(np.nansum(f**2, axis=1))
-        norm = norm[np.isfinite(f).any(axis=1)]
+        f = df[list(fcols)].to_numpy(dtype=np.float64)
+        norm = np.sqrt(np.nansum(f**2, axis=1))[np.isfinite(f).any(axis=1)]
         med = float(np.median(norm)) if len(norm) else float("nan")
         if 0.8 <= med <= 1.25:
-            df[fcols] = df[fcols] * G0
-            notes.append(f"specific force in g (median |f| = {med:.3f}, expected ≈ 9.81 m/s² at sea): "
-                         f"converted {', '.join(fcols)} to m/s²")
-        elif np.isfinite(med) and not 8.0 <= med <= 12.0:
-            notes.append(f"specific force median |f| = {med:.3g} m/s², expected ≈ 9.81 at sea: check its units")
-
+            out.append(UnitFinding(fcols, "g", f"median |f| {med:.3f} (≈ 1 g; 9.81 expected in m/s²)"))
     secs = _seconds(df["time"]) if "time" in df.columns and n > 1 else None
     rate_done = set()
     for angle, rate in (("roll", "roll_rate"), ("pitch", "pitch_rate")):
@@ -520,49 +544,37 @@ def detect_units(df: pd.DataFrame) -> list[str]:
                 dadt = np.full(n, np.nan)
                 dadt[ok] = np.gradient(a[ok], secs[ok])
                 k = _slope(df[rate].to_numpy(dtype=np.float64), dadt)
-        if k is not None and 0.8 <= k / _DEG <= 1.25:
-            df[angle] = np.radians(a)
-            notes.append(f"{angle}: d{angle}/dt = {k:.1f} × {rate} → {angle} in degrees, {rate} in rad/s: "
-                         f"converted {angle} to rad")
+        if k is not None and 0.8 <= k / _DEG <= 1.25 and angles:
+            out.append(UnitFinding((angle,), "deg", f"d{angle}/dt = {k:.1f} × {rate}"))
             rate_done.add(rate)
             continue
         if k is not None and 0.8 <= k * _DEG <= 1.25:
-            df[rate] = np.radians(df[rate].to_numpy(dtype=np.float64))
-            notes.append(f"{angle}: d{angle}/dt = {k:.4f} × {rate} → {rate} in deg/s: converted {rate} to rad/s")
+            out.append(UnitFinding((rate,), "deg/s", f"d{angle}/dt = {k:.4f} × {rate}"))
             rate_done.add(rate)
             continue
         p = _p99(a)
         if k is not None and 0.8 <= k <= 1.25:  # consistent units: both rad or both degrees
             rate_done.add(rate)
-            if p > 1.6 and np.nanmax(np.abs(a)) <= 180.0:
-                df[angle] = np.radians(a)
-                df[rate] = np.radians(df[rate].to_numpy(dtype=np.float64))
-                notes.append(f"{angle} and {rate} agree with each other and |{angle}| 99th percentile is {p:.3g} "
-                             "(> 92° if radians): both in degrees: converted to rad and rad/s")
-            elif p > 0.8:
-                notes.append(f"{angle}: |{angle}| 99th percentile {p:.3g} rad (> 46°): {angle} and {rate} "
-                             "probably in degrees; left as is")
+            if angles and p > 0.8:
+                certain = p > 1.6 and np.nanmax(np.abs(a)) <= 180.0
+                out.append(UnitFinding((angle, rate), "deg", f"{angle} and {rate} agree and |{angle}| 99th "
+                                       f"percentile {p:.3g} (> {'92' if certain else '46'}° if radians)", certain))
             continue
-        if p > 1.6 and np.nanmax(np.abs(a)) <= 180.0:
-            df[angle] = np.radians(a)
-            notes.append(f"{angle}: |{angle}| 99th percentile {p:.3g} (> 92° if radians): degrees: converted to rad")
-        elif p > 0.8:
-            notes.append(f"{angle}: |{angle}| 99th percentile {p:.3g} rad (> 46°): probably degrees; left as is")
+        if angles and p > 0.8:
+            certain = p > 1.6 and np.nanmax(np.abs(a)) <= 180.0
+            out.append(UnitFinding((angle,), "deg", f"|{angle}| 99th percentile {p:.3g} "
+                                   f"(> {'92' if certain else '46'}° if radians)", certain))
     for rate in ("roll_rate", "pitch_rate", "yaw_rate"):
         if rate in df.columns and rate not in rate_done:
             p = _p99(df[rate].to_numpy(dtype=np.float64))
-            if p > 1.6:
-                df[rate] = np.radians(df[rate].to_numpy(dtype=np.float64))
-                notes.append(f"{rate}: 99th percentile {p:.3g} (> 92°/s if rad/s): deg/s: converted to rad/s")
-            elif p > 1.0:
-                notes.append(f"{rate}: 99th percentile {p:.3g} rad/s (> 57°/s): probably deg/s; left as is")
-
-    if "heading_deg" in df.columns:
+            if p > 1.0:
+                out.append(UnitFinding((rate,), "deg/s", f"|{rate}| 99th percentile {p:.3g} "
+                                       f"(> {'92' if p > 1.6 else '57'}°/s if rad/s)", p > 1.6))
+    if angles and "heading_deg" in df.columns:
         h = df["heading_deg"].to_numpy(dtype=np.float64)
         h = h[np.isfinite(h)]
         if len(h) > 10 and np.abs(h).max() <= 2 * np.pi + 0.01 and np.ptp(h) > 0.5:
-            notes.append("heading_deg: every value within ±2π: possibly radians; left as is")
-
+            out.append(UnitFinding(("heading_deg",), "rad", "every value within ±2π", False))
     if {"lat", "lon", "sog", "time"} <= set(df.columns) and n > 10:
         sub = df[["time", "lat", "lon", "sog"]].dropna()
         if len(sub) > 10:
@@ -578,14 +590,163 @@ def detect_units(df: pd.DataFrame) -> list[str]:
                     ratio = sog / fixes
                     for name, factor in (("knots", 3600 / 1852), ("km/h", 3.6)):
                         if abs(ratio / factor - 1) < 0.1:
-                            df["sog"] = df["sog"] / factor
-                            notes.append(f"sog = {ratio:.2f} × the speed from successive fixes: {name}: "
-                                         "converted to m/s")
+                            out.append(UnitFinding(("sog",), name,
+                                                   f"sog = {ratio:.2f} × the speed from successive fixes"))
                             break
+    return out
+
+
+def check_units(df: pd.DataFrame, source: TopicTable, *, table: bool) -> list[str]:
+    """The units policy: ROS message fields are SI by definition (REP-103/145) and are never rescaled — a
+    finding only warns. A table log's (CSV / Parquet) column whose unit the run YAML does not declare and whose
+    numbers say degrees, g, knots or km/h stops ingest with a UserError naming the column and the evidence;
+    weaker evidence warns. Returns the warnings."""
+    declared = source.table.attrs.get("declared_units", {})
+    log_columns = source.table.attrs.get("log_columns", {})
+    cols = source.table.columns
+    quaternion = "qw" in cols and source.table["qw"].notna().any()
+    given_angles = table and not quaternion and bool({"roll", "pitch"} & set(cols))  # not from a quaternion
+    notes = []
+    for f in unit_findings(df, angles=given_angles):
+        if not table:
+            cols = ", ".join(f.columns)
+            notes.append(f"{cols} look{'s' if len(f.columns) == 1 else ''} like {f.unit}: {f.evidence}; "
+                         f"{source.msgtype} is SI by definition (REP-103): left as is")
+            continue
+        cols = [c for c in f.columns if _FIELD.get(c, c) not in declared]
+        if not cols:
+            continue
+        names = [log_columns.get(_FIELD.get(c, c), c) for c in cols]
+        if not f.certain:
+            notes.append(f"{', '.join(names)}: {f.evidence}: probably {f.unit}; left as is (declare the unit "
+                         "in the run YAML's columns to be sure)")
+            continue
+        units = ["deg/s" if f.unit == "deg" and c.endswith("_rate") else f.unit for c in cols]
+        example = ", ".join(f"{n}: {{name: {c}, unit: {u}}}" for n, c, u in zip(names, cols, units, strict=True))
+        raise UserError(source.source, "column " + ", ".join(repr(n) for n in names),
+                        f"{f.evidence}: looks like {' and '.join(dict.fromkeys(units))}, not SI; declare the unit "
+                        f"in the run YAML (logs[].columns: {{{example}}}) or convert the column")
     return notes
 
 
+# ---------------------------------------------------------------------------------------------------- mounting
+
+
+def tf_mounting(transforms, frame_id: str, body: str = "base_link") -> tuple[Rotation, list[str]] | None:
+    """Rotation sensor → body (v_body = R v_sensor) from /tf_static: the chain of transforms from the sensor's
+    ``frame_id`` up to ``body`` (or to the root of its tree), with the frames passed; None when ``frame_id`` is
+    the body or not in the tree."""
+    parent = {t.child: t for t in transforms}
+    frame = frame_id.strip("/")
+    if frame == body or frame not in parent:
+        return None
+    rot, chain = Rotation.identity(), [frame]
+    while frame in parent and frame != body and len(chain) <= len(parent):
+        t = parent[frame]
+        rot = Rotation.from_quat(t.rotation) * rot
+        frame = t.parent
+        chain.append(frame)
+    return rot, chain[::-1]
+
+
+def _euler_deg(rot: Rotation) -> np.ndarray:
+    """(yaw, pitch, roll) [deg]; at pitch ±90° scipy's gimbal-lock warning is moot (roll takes it all)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        return rot.as_euler("ZYX", degrees=True)
+
+
+def _rpy(rot: Rotation) -> str:
+    yaw, pitch, roll = _euler_deg(rot)
+    return f"{{roll_deg: {roll + 0.0:.1f}, pitch_deg: {pitch + 0.0:.1f}, yaw_deg: {yaw + 0.0:.1f}}}"
+
+
+_AXES = {(1, 0, 0): "+x", (-1, 0, 0): "−x", (0, 1, 0): "+y", (0, -1, 0): "−y", (0, 0, 1): "+z", (0, 0, -1): "−z"}
+
+
+def _axis(v: np.ndarray) -> np.ndarray | None:
+    """The body axis (±x, ±y, ±z) within 15° of the unit vector v, or None."""
+    axis = np.zeros(3)
+    i = int(np.argmax(np.abs(v)))
+    axis[i] = np.sign(v[i])
+    return axis if float(np.dot(axis, v)) > np.cos(np.radians(15.0)) else None
+
+
+def _direction(v: np.ndarray) -> str:
+    axis = _axis(v)
+    if axis is not None:
+        return _AXES[tuple(int(c) for c in axis)]
+    return "(" + ", ".join(f"{c:+.2f}" for c in v) + ")"
+
+
+def _looks(rot: Rotation) -> str:
+    """'rolled 90°', 'pitched −90°', … for a rotation about one axis, else 'mounted rotated'."""
+    yaw, pitch, roll = np.round(_euler_deg(rot), 1) + 0.0
+    turned = [(name, a) for name, a in (("rolled", roll), ("pitched", pitch), ("yawed", yaw)) if a]
+    return f"{turned[0][0]} {turned[0][1]:g}°" if len(turned) == 1 else "mounted rotated"
+
+
+def mounting_warnings(m: pd.DataFrame, imu: TopicTable, mounting: Rotation | None, sensor: str) -> list[str]:
+    """Warnings that name the likely mounting rotation: a mean specific force not along body +z (gravity not
+    along −z, DESIGN §3 FLU), and an orientation that never moves (a driver filling in a constant quaternion)."""
+    out = []
+    f = m[["imu_fx", "imu_fy", "imu_fz"]].to_numpy(dtype=np.float64)
+    f = f[np.isfinite(f).all(axis=1)]
+    mean = f.mean(axis=0) if len(f) >= 10 else np.zeros(3)
+    size = float(np.linalg.norm(mean))
+    if size > 0.5 * G0 and mean[2] / size < np.cos(np.radians(15.0)):
+        total = mounting if mounting is not None else Rotation.identity()
+        in_sensor = total.inv().apply(mean / size)
+        up = _axis(in_sensor)  # a mounting is usually a whole number of quarter turns
+        up = in_sensor if up is None else up
+        if up[2] < -0.99:  # upside down: the smallest rotation is ambiguous, a roll of 180° is the usual one
+            likely = Rotation.from_euler("x", 180.0, degrees=True)
+        else:
+            likely = Rotation.align_vectors([[0.0, 0.0, 1.0]], [up])[0]
+        out.append(f"the accelerometers read gravity along {_direction(in_sensor)} of the IMU frame (mean specific "
+                   f"force {np.round(mean, 2).tolist()} m/s² in the body), expected along body +z: the IMU looks "
+                   f"{_looks(likely)}; set sensors.{sensor}.rotation: {_rpy(likely)} in the vessel YAML")
+    q = imu.table.reindex(columns=["qx", "qy", "qz", "qw"]).to_numpy(dtype=np.float64)
+    q = q[np.isfinite(q).all(axis=1)]
+    if len(q) >= 10 and abs(np.linalg.norm(q[0]) - 1.0) < 0.1 and (q == q[0]).all():
+        ident = " (identity)" if (np.abs(q[0]) == [0.0, 0.0, 0.0, 1.0]).all() else ""
+        out.append(f"orientation is the same quaternion {q[0].tolist()}{ident} in all {len(q):,} messages: the "
+                   "IMU does not estimate its attitude; roll and pitch from it are constant")
+    return out
+
+
 # ---------------------------------------------------------------------------------------------------- all
+
+_EPOCH_MIN = pd.Timestamp("1990-01-01", tz="UTC")
+
+
+def _check_epoch(tt: TopicTable, log: LogContents) -> None:
+    """Stamps before 1990 (a clock never set: time since boot) or more than a day in the future: one line."""
+    t = tt.table["time"]
+    if not len(t):
+        return
+    first, last = t.min(), t.max()
+    late = pd.Timestamp.now(tz="UTC") + pd.Timedelta(days=1)
+    if first < _EPOCH_MIN or last > late:
+        what = ("before 1990: a clock that was never set (time since boot?)" if first < _EPOCH_MIN
+                else "in the future: a wrong clock or time unit")
+        raise UserError(str(log.path), f"topic {tt.topic}", f"stamps from {first.isoformat()} to {last.isoformat()} "
+                        f"are {what}; the hindcast cannot be matched")
+
+
+def _topics_present(logs: Sequence[LogContents]) -> str:
+    have = [f"{t.topic} ({t.msgtype})" for log in logs for t in log.topics.values()]
+    have += [f"{topic} ({msgtype}, not read)" for log in logs for topic, msgtype in log.skipped.items()]
+    return ", ".join(have) or "none"
+
+
+def _check_named_topics(logs: Sequence[LogContents], named: dict[str, str | None]) -> None:
+    for place, topic in named.items():
+        if topic is not None and not any(topic in log.topics for log in logs):
+            files = ", ".join(str(log.path) for log in logs) or None
+            raise UserError(files, place, f"topic {topic} not in the log(s); topics present: {_topics_present(logs)}")
 
 
 def build_motions(
@@ -597,17 +758,25 @@ def build_motions(
     imu_topic: str | None = None,
     fix_topic: str | None = None,
     vel_topic: str | None = None,
+    mounting: Rotation | None = None,
+    sensor: str = "imu",
 ) -> tuple[pd.DataFrame, IngestReport]:
     """The motion table of a trial from its logs (back to back, or complementary: an MCAP with the IMU and a
-    CSV with GNSS): per log, the IMU / NavSatFix / velocity topics are picked (or named), their time repaired,
-    turned into motions, unit-checked; then everything is resampled on one grid. Log warnings are carried into
-    the report. Raises UserError when no log has an IMU topic."""
+    CSV with GNSS): per log, the IMU / NavSatFix / velocity topics are picked (or named), their time repaired and
+    checked (1990 to tomorrow), turned into motions (the IMU rotated into the body by `mounting` — the vessel
+    YAML's ``sensors.<sensor>.rotation`` — or else by the log's /tf_static), unit-checked (:func:`check_units`);
+    then everything is resampled on one grid. Log warnings are carried into the report. Raises UserError when no
+    log has an IMU topic, or a named topic is in no log."""
     report = IngestReport()
     imus, gnss, points = [], [], {}
+    _check_named_topics(logs, {"topics.imu": imu_topic, "topics.gnss_fix": fix_topic,
+                               "topics.gnss_vel/odometry": vel_topic})
     for log in logs:
+        table_log = log.format in ("csv", "parquet")
         for vec in log.of_type(VEC3):  # point sensors (e.g. heave at a point): the vertical component
             t, c = repair_time(vec)
             report.add(c)
+            _check_epoch(t, log)
             name = vec.topic.strip("/").replace("/", "_")
             points.setdefault(name, []).append(t.table[["time"]].assign(**{name: t.table["z"].to_numpy()}))
         report.warnings += log.warnings
@@ -626,9 +795,19 @@ def build_motions(
         if imu is not None:
             imu, c = repair_time(imu)
             report.add(c)
-            m = imu_motions(imu, frame=frame)
+            _check_epoch(imu, log)
+            mount, where = mounting, f"vessel YAML sensors.{sensor}.rotation"
+            tf = tf_mounting(log.static_transforms, imu.frame_id) if log.static_transforms else None
+            if tf is not None and mounting is not None:
+                where += f" (wins over /tf_static {' → '.join(tf[1])}: {_rpy(tf[0])})"
+            elif tf is not None:
+                mount, where = tf[0], f"/tf_static {' → '.join(tf[1])}"
+            if mount is not None:
+                report.notes.append(f"{log.path.name} {imu.topic}: IMU mounting {_rpy(mount)} from {where}")
+            m = imu_motions(imu, frame=frame, mounting=mount)
             report.add({"imu_samples_without_orientation": m.attrs["no_orientation"]})
-            report.warnings += [f"{log.path.name} {imu.topic}: {w}" for w in detect_units(m)]
+            report.warnings += [f"{log.path.name} {imu.topic}: {w}" for w in check_units(m, imu, table=table_log)]
+            report.warnings += [f"{log.path.name} {imu.topic}: {w}" for w in mounting_warnings(m, imu, mount, sensor)]
             imus.append(m)
         fix = named(fix_topic, FIX)
         vel = named(vel_topic, TWIST)
@@ -638,18 +817,21 @@ def build_motions(
             if fix is not None:
                 fix, c = repair_time(fix)
                 report.add(c)
+                _check_epoch(fix, log)
             if vel is not None:
                 vel, c = repair_time(vel)
                 report.add(c)
+                _check_epoch(vel, log)
             g = gnss_motions(fix, vel)
             report.add({"gnss_no_fix_removed": g.attrs["no_fix"]})
-            report.warnings += [f"{log.path.name} GNSS: {w}" for w in detect_units(g)]
+            if vel is not None:
+                report.warnings += [f"{log.path.name} GNSS: {w}" for w in check_units(g, vel, table=table_log)]
             gnss.append(g)
     if not imus:
         if len(logs) == 1:
             imu_motions(logs[0])  # raises the UserError naming the file and its topics
         names = ", ".join(str(log.path) for log in logs) or None
-        raise UserError(names, None, "no sensor_msgs/Imu topic")
+        raise UserError(names, None, f"no sensor_msgs/Imu topic (topics: {_topics_present(logs)})")
     table, c = resample(imus + gnss + [f for frames in points.values() for f in frames], rate_hz, max_gap_s)
     for k in ("duplicates_removed", "non_monotonic_repaired"):
         if c.get(k):

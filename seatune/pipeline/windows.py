@@ -10,12 +10,14 @@ freedom come from the window's own spectrum). Every candidate is kept with accep
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 from scipy.stats import f as f_dist
 
+from seatune.errors import UserError
 from seatune.io.yaml_config import NonNegativeFloat, PositiveFloat, Strict
 
 
@@ -65,9 +67,12 @@ def _circular_mean_deg(deg: np.ndarray) -> float:
 
 
 def _heading_spread(deg: np.ndarray) -> np.ndarray:
-    """Running max − min of the unwrapped heading [deg]."""
-    u = np.degrees(np.unwrap(np.radians(deg)))
-    return np.maximum.accumulate(u) - np.minimum.accumulate(u)
+    """Running max − min of the unwrapped heading [deg]; samples without a heading (NaN) change nothing."""
+    r = np.radians(np.asarray(deg, dtype=np.float64))
+    ok = np.isfinite(r)
+    u = np.full(r.shape, np.nan)
+    u[ok] = np.degrees(np.unwrap(r[ok]))
+    return np.nan_to_num(np.fmax.accumulate(u) - np.fmin.accumulate(u), nan=0.0)
 
 
 def effective_dof(x: np.ndarray, fs: float) -> float:
@@ -80,9 +85,14 @@ def effective_dof(x: np.ndarray, fs: float) -> float:
 
 
 def stationarity_test(x: np.ndarray, fs: float, parts: int, alpha: float) -> tuple[bool, float]:
-    """F-test of the largest against the smallest sub-window variance (Bonferroni over the pairs)."""
-    chunks = np.array_split(x, parts)
+    """F-test of the largest against the smallest sub-window variance (Bonferroni over the pairs); samples
+    without a value (NaN) are left out."""
+    chunks = np.array_split(x[np.isfinite(x)], parts)
+    if min(c.size for c in chunks) < 2:
+        return False, float("nan")
     var = np.array([c.var() for c in chunks])
+    if not (var > 0).all():  # a sub-window without motion (a dead sensor): nothing to test
+        return False, float("nan")
     nu = np.array([max(effective_dof(c, fs), 2.0) for c in chunks])
     hi, lo = int(var.argmax()), int(var.argmin())
     ratio = var[hi] / var[lo]
@@ -170,6 +180,38 @@ def windows_table(candidates: list[Candidate]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+# Each rejection reason written above → its kind with the threshold, the measured value dropped
+REASON_KINDS = (
+    (re.compile(r"moving: speed over ground .* > (?P<limit>.+)"), "moving (speed over ground > {limit})"),
+    (re.compile(r"heading changed more than (?P<limit>\S+) within"), "heading changed more than {limit}"),
+    (re.compile(r"too short: .* < (?P<limit>.+)"), "too short (< {limit})"),
+    (re.compile(r"sea not stationary: hindcast Hs changes .* > (?P<limit>.+)"),
+     "sea not stationary (hindcast Hs change > {limit})"),
+    (re.compile(r"motions not stationary: (?P<channel>\S+) variance ratio"),
+     "motions not stationary ({channel} variance F-test)"),
+)
+
+
+def reason_kind(reason: str) -> str:
+    for pattern, kind in REASON_KINDS:
+        m = pattern.match(reason)
+        if m:
+            return kind.format(**m.groupdict())
+    return reason.split(":")[0]
+
+
+def rejection_counts(table: pd.DataFrame) -> list[tuple[str, int]]:
+    """(kind of reason, candidates) of the rejected candidates of windows.parquet, most frequent first."""
+    rejected = table.loc[~table["accepted"].astype(bool), "reason"].astype(str)
+    counts = rejected.map(reason_kind).value_counts(sort=False)
+    return sorted(((str(k), int(n)) for k, n in counts.items()), key=lambda kn: -kn[1])
+
+
+def rejection_text(table: pd.DataFrame) -> str:
+    """'4 moving (speed over ground > 0.5 m/s), 2 too short (< 20 min)', or 'none rejected'."""
+    return ", ".join(f"{n} {kind}" for kind, n in rejection_counts(table)) or "none rejected"
+
+
 WINDOW_UNITS = {"window_id": "", "start": "UTC", "end": "UTC", "duration_s": "s", "record": "", "accepted": "",
                 "reason": "", "heading_deg": "deg", "sog": "m/s", "hs": "m", "tp": "s", "dir_from_deg": "deg"}
 
@@ -185,6 +227,9 @@ def windows_stage(run, echo=print, force: bool = False) -> dict:
     if not force and is_fresh([out], fp):
         return {"skipped": True}
     motions, waves = pd.read_parquet(src[0]), pd.read_parquet(src[1])
+    for path, df in zip(src, (motions, waves), strict=True):
+        if not len(df):
+            raise UserError(str(path), None, "too little data: no rows (re-run `seatune ingest` on the logs)")
     fs = run.spec.ingest.rate_hz
     table = windows_table(find_windows(motions, waves, run.spec.windows, fs))
     mid = table["start"] + (table["end"] - table["start"]) / 2
@@ -197,4 +242,5 @@ def windows_stage(run, echo=print, force: bool = False) -> dict:
     table["dir_from_deg"] = np.degrees(np.arctan2(east, north)) % 360
     write_table(table, out, WINDOW_UNITS, {"fingerprint": fp})
     return {"skipped": False, "candidates": len(table), "accepted": int(table["accepted"].sum()),
-            "accepted_minutes": float(table.loc[table["accepted"], "duration_s"].sum() / 60)}
+            "accepted_minutes": float(table.loc[table["accepted"], "duration_s"].sum() / 60),
+            "rejected": rejection_text(table) if len(table) else "no candidate"}
