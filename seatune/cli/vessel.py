@@ -1,4 +1,4 @@
-"""`seatune vessel build | info | rao`."""
+"""`seatune vessel build | info | rao | export`."""
 
 from __future__ import annotations
 
@@ -87,24 +87,56 @@ def info(vessel_yaml, overrides, as_json):
 @vessel.command()
 @click.argument("vessel_yaml", type=click.Path(dir_okay=False))
 @click.option("--set", "overrides", multiple=True, metavar="NAME=VALUE", help="Override a loading parameter.")
-@click.option("--out", required=True, type=click.Path(dir_okay=False), help="Parquet file to write.")
+@click.option("--out", required=True, type=click.Path(dir_okay=False), help="File to write.")
 @click.option("--dofs-only", is_flag=True, help="Only the 6 motion RAOs, not the channels.")
+@click.option("--format", "fmt", type=click.Choice(["parquet", "xarray", "waveresponse"]), default="parquet",
+              show_default=True, help="Long Parquet table, xarray netCDF (complex as Capytaine stores it), or "
+              "netCDF with the arguments of waveresponse.RAO.from_amp_phase; conventions in the metadata.")
 @handle_errors
-def rao(vessel_yaml, overrides, out, dofs_only):
-    """Write motion and channel RAOs of a loading condition to Parquet."""
+def rao(vessel_yaml, overrides, out, dofs_only, fmt):
+    """Write motion and channel RAOs of a loading condition."""
     from seatune.io.parquet import write_table
+    from seatune.io.rao_export import RAO_CONVENTIONS, rao_dataset, save_rao_xarray, save_waveresponse
     from seatune.pipeline.vessel import file_hash, open_vessel
     from seatune.pipeline.vessel_report import rao_table
 
     model = open_vessel(vessel_yaml)
     values = _parse_overrides(overrides, vessel_yaml)
     loading = model.loading(**values)
-    df, units = rao_table(model, loading, include_channels=not dofs_only)
-    write_table(df, out, units, {"vessel": str(vessel_yaml), "vessel_hash": file_hash(vessel_yaml),
-                                 "loading_overrides": values})
-    n_resp = df["response"].nunique()
+    provenance = {"vessel": str(vessel_yaml), "vessel_hash": file_hash(vessel_yaml), "loading_overrides": values}
+    if fmt == "parquet":
+        df, units = rao_table(model, loading, include_channels=not dofs_only)
+        write_table(df, out, units, {**provenance, "conventions": RAO_CONVENTIONS})
+        n_resp = df["response"].nunique()
+    else:
+        ds = rao_dataset(model, loading, include_channels=not dofs_only)
+        ds.attrs.update(vessel_file=str(vessel_yaml), vessel_hash=provenance["vessel_hash"],
+                        loading_overrides=json.dumps(values))
+        (save_rao_xarray if fmt == "xarray" else save_waveresponse)(ds, out)
+        n_resp = ds.sizes["response"]
     click.echo(f"vessel rao: {n_resp} responses × {model.db.omega.size} ω × {model.db.wave_direction.size} "
-               f"directions → {out}")
+               f"directions → {out} ({fmt})")
+
+
+@vessel.command()
+@click.argument("vessel_yaml", type=click.Path(dir_okay=False))
+@click.option("--set", "overrides", multiple=True, metavar="NAME=VALUE", help="Override a loading parameter.")
+@click.option("--out", required=True, type=click.Path(), help="netCDF file; WAMIT: path prefix; Nemoh: folder.")
+@click.option("--format", "fmt", type=click.Choice(["netcdf", "wamit", "nemoh"]), default="netcdf",
+              show_default=True, help="Capytaine netCDF, or Capytaine's own WAMIT (.1 .3 .hst) / Nemoh export.")
+@handle_errors
+def export(vessel_yaml, overrides, out, fmt):
+    """The hydro database at a loading condition as a Capytaine dataset (inertia matrix, hydrostatic
+    stiffness, forward speed, body), for capytaine.post_pro.rao and Capytaine's exporters."""
+    from seatune.io.capytaine_export import capytaine_dataset, export_capytaine
+    from seatune.pipeline.vessel import open_vessel
+
+    model = open_vessel(vessel_yaml)
+    loading = model.loading(**_parse_overrides(overrides, vessel_yaml))
+    ds = capytaine_dataset(model.db, loading, body=model.spec.name)
+    written = export_capytaine(ds, out, fmt)
+    click.echo(f"vessel export: draft {float(ds['draught']):.3f} m, {ds.sizes['omega']} ω × "
+               f"{ds.sizes['wave_direction']} directions → {', '.join(map(str, written))}")
 
 
 def _parse_overrides(items, source) -> dict:

@@ -42,8 +42,8 @@ BASE_UNITS = {"name": "", "status": "", "error": "", "error_type": "", "seconds"
               "run_yaml": "", "report": "", "log": ""}
 # units of the loading parameters as tuning_history.parquet holds them (vessel-YAML units)
 LOADING_UNITS = {"mass": "kg", "displacement": "m^3", "xcg": "m", "ycg": "m", "zcg": "m", "r44": "m", "r55": "m",
-                 "r66": "m", "gmt_fs": "m", "gml_fs": "m", "beta33": "fraction of critical",
-                 "beta44": "fraction of critical", "beta55": "fraction of critical"}
+                 "r66": "m", "gmt_fs": "m", "gml_fs": "m", "beta33": "dimensionless",
+                 "beta44": "dimensionless", "beta55": "dimensionless"}
 
 
 # ---------------------------------------------------------------------------------------------------------

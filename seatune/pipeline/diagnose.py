@@ -23,16 +23,19 @@ import yaml
 from seatune.errors import UserError
 
 DIAGNOSIS_UNITS = {
-    "effect": "", "signature": "", "n_params": "", "fitted": "JSON, parameter units in fitted_units",
-    "fitted_std": "JSON", "fitted_units": "JSON", "loading": "JSON, loading parameter units (SI)",
-    "nll_train": "nat", "nll_holdout": "nat", "gain_train": "nat", "gain_holdout": "nat", "bic_penalty": "nat",
-    "at_bound": "", "eligible": "", "selected": "", "gap_before_train": "", "gap_after_train": "",
-    "gap_before_holdout": "",
-    "gap_after_holdout": "", "sigma_error_before_train": "", "sigma_error_after_train": "",
-    "sigma_error_before_holdout": "", "sigma_error_after_holdout": "", "bands_before": "", "bands_after": "",
+    "effect": "", "signature": "", "n_params": "", "fitted": "text; JSON, parameter units in fitted_units",
+    "fitted_std": "text; JSON", "fitted_units": "text; JSON", "loading": "text; JSON, loading parameter units (SI)",
+    "nll_train": "dimensionless; nat", "nll_holdout": "dimensionless; nat", "gain_train": "dimensionless; nat",
+    "gain_holdout": "dimensionless; nat", "bic_penalty": "dimensionless; nat",
+    "at_bound": "", "eligible": "", "selected": "", "gap_before_train": "dimensionless",
+    "gap_after_train": "dimensionless", "gap_before_holdout": "dimensionless",
+    "gap_after_holdout": "dimensionless", "sigma_error_before_train": "dimensionless",
+    "sigma_error_after_train": "dimensionless", "sigma_error_before_holdout": "dimensionless",
+    "sigma_error_after_holdout": "dimensionless", "bands_before": "", "bands_after": "",
 }
-RESIDUAL_UNITS = {"window_id": "", "role": "", "channel": "", "omega": "rad/s", "log_ratio_before": "",
-                  "log_ratio_after": "", "z_before": "", "z_after": "", "used": ""}
+RESIDUAL_UNITS = {"window_id": "", "role": "", "channel": "", "omega": "rad/s", "log_ratio_before": "dimensionless",
+                  "log_ratio_after": "dimensionless", "z_before": "dimensionless", "z_after": "dimensionless",
+                  "used": ""}
 
 
 def body_wave(S2d: np.ndarray, dirs_from: np.ndarray, heading_deg: float, grid_rad: np.ndarray) -> np.ndarray:

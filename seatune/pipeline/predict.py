@@ -28,10 +28,12 @@ import pandas as pd
 
 from seatune.errors import UserError
 
-PREDICTION_UNITS = {"time": "", "model": "", "channel": "", "heading_deg": "deg", "exceedance_probability": "",
-                    "most_probable_max": "channel unit", "median_max": "channel unit", "sigma": "channel unit",
-                    "tz": "s", "optimal_heading_deg": "deg", "optimal_probability": "", "is_optimal": "",
-                    "limit": "channel unit", "duration_s": "s", "hs": "m", "tp": "s", "dir_from_deg": "deg",
+CHANNEL_PER_ROW = "per row; the unit of the row's channel"
+PREDICTION_UNITS = {"time": "", "model": "", "channel": "", "heading_deg": "deg",
+                    "exceedance_probability": "dimensionless",
+                    "most_probable_max": CHANNEL_PER_ROW, "median_max": CHANNEL_PER_ROW, "sigma": CHANNEL_PER_ROW,
+                    "tz": "s", "optimal_heading_deg": "deg", "optimal_probability": "dimensionless", "is_optimal": "",
+                    "limit": CHANNEL_PER_ROW, "duration_s": "s", "hs": "m", "tp": "s", "dir_from_deg": "deg",
                     "lat": "deg", "lon": "deg", "posterior_points": "", "sea_state_hypotheses": ""}
 CHANNEL_UNITS = {"angle": "rad", "rate": "rad/s", "displacement": "m", "velocity": "m/s", "acceleration": "m/s^2",
                  "specific_force": "m/s^2"}  # what the vessel YAML requires of each channel kind
@@ -254,7 +256,7 @@ def predict_stage(run, vessel, forecast_path, forecast_format: str = "auto", ech
     table = pd.concat(rows, ignore_index=True)
     units = {**PREDICTION_UNITS}
     unit = CHANNEL_UNITS[vessel.channel(channel).kind]
-    units.update({c: unit for c, u in PREDICTION_UNITS.items() if u == "channel unit"})
+    units.update({c: unit for c, u in PREDICTION_UNITS.items() if u == CHANNEL_PER_ROW})
     write_table(table, out, units, {"fingerprint": fp, "forecast": str(forecast_path)})
     return {"skipped": False, "path": str(out), "table": table, "channel": channel, "unit": unit,
             "limit": settings.limit, "duration_s": settings.duration_s, "times": times.size,

@@ -28,12 +28,12 @@ SEA_UNITS = {
     "dir_from_deg_std": "deg",
     "spread_deg": "deg",
     "spread_deg_std": "deg",
-    "gamma": "",
-    "gamma_std": "",
+    "gamma": "dimensionless",
+    "gamma_std": "dimensionless",
     "heading_deg": "deg",
-    "chi2_reduced": "",
-    "hindcast_misfit": "",
-    "fitted_misfit": "",
+    "chi2_reduced": "dimensionless",
+    "hindcast_misfit": "dimensionless",
+    "fitted_misfit": "dimensionless",
     "channels": "",
 }
 DIRS_FROM = np.arange(72) * 5.0  # the estimate's direction grid [deg, coming-from]

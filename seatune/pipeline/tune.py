@@ -19,10 +19,14 @@ import yaml
 
 from seatune.errors import UserError
 
-HISTORY_UNITS = {"update": "", "window_id": "", "backend": "", "parameter": "", "mean": "", "std": "", "q05": "",
-                 "q50": "", "q95": "", "channels_used": "", "marginal_grid": "", "marginal_pmf": ""}
-VALIDATION_UNITS = {"window_id": "", "role": "", "measurement": "", "measured": "", "predicted_prior": "",
-                    "predicted_tuned": "", "informative": ""}
+PARAMETER_PER_ROW = "per row; the unit of the row's parameter (vessel YAML loading)"
+HISTORY_UNITS = {"update": "", "window_id": "", "backend": "", "parameter": "", "mean": PARAMETER_PER_ROW,
+                 "std": PARAMETER_PER_ROW, "q05": PARAMETER_PER_ROW, "q50": PARAMETER_PER_ROW, "q95": PARAMETER_PER_ROW,
+                 "channels_used": "", "marginal_grid": PARAMETER_PER_ROW,
+                 "marginal_pmf": "per row; 1/(the unit of the row's parameter)"}
+MEASUREMENT_PER_ROW = "per row; the unit of the row's measurement: the channel unit for sigma, s for tz"
+VALIDATION_UNITS = {"window_id": "", "role": "", "measurement": "", "measured": MEASUREMENT_PER_ROW,
+                    "predicted_prior": MEASUREMENT_PER_ROW, "predicted_tuned": MEASUREMENT_PER_ROW, "informative": ""}
 GH_NODES = np.array([-np.sqrt(3.0), 0.0, np.sqrt(3.0)])  # 3-point Gauss–Hermite (probabilists'): exact to 5th moment
 GH_WEIGHTS = np.array([1 / 6, 2 / 3, 1 / 6])
 INFORMATIVE_ALPHA = 0.05  # a channel is informative on the tuned parameters if its prior spread ≥ 5 % (A2 eq. 9)
@@ -288,7 +292,7 @@ def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
                  "predicted_prior": float(pred[0, j]), "predicted_tuned": float(pred[1, j]),
                  "informative": bool(spread[j] >= INFORMATIVE_ALPHA)}
                 for j, n in enumerate(names)]
-    cov_units = {f"cov_{p.name}": "" for p in parameters}  # parameter unit × other parameter's unit
+    cov_units = {f"cov_{p.name}": f"per row; unit of the row's parameter × unit of {p.name}" for p in parameters}
     history, validation = pd.DataFrame(rows, columns=[*HISTORY_UNITS, *cov_units]), pd.DataFrame(val)
     meta = {"fingerprint": fp}
     tuned_vessel_yaml(vessel, post, tuned_path)  # first: the Parquet fingerprints then vouch for it too

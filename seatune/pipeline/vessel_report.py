@@ -11,6 +11,7 @@ from seatune.physics.modes import coupled_modes
 from seatune.physics.response import channel_raos, motion_raos
 from seatune.pipeline.vessel import VesselModel
 
+UNITS_PER_ROW = "per row; the unit in the row's `units`"
 RAO_UNITS = {"Surge": "m/m", "Sway": "m/m", "Heave": "m/m", "Roll": "rad/m", "Pitch": "rad/m", "Yaw": "rad/m"}
 CHANNEL_UNITS = {"angle": "rad/m", "rate": "rad/s/m", "displacement": "m/m", "velocity": "m/s/m",
                  "acceleration": "m/s^2/m", "specific_force": "m/s^2/m"}
@@ -74,8 +75,8 @@ def rao_table(model: VesselModel, loading: Loading, include_channels: bool = Tru
                            [CHANNEL_UNITS[c.kind] for c in model.channels]))
     df = pd.concat(parts, ignore_index=True)
     units = {"omega": "rad/s", "wave_direction": "rad", "wave_direction_deg": "deg", "response": "",
-             "response_type": "", "units": "", "re": "see units", "im": "see units",
-             "amplitude": "see units", "phase": "rad"}
+             "response_type": "", "units": "", "re": UNITS_PER_ROW, "im": UNITS_PER_ROW,
+             "amplitude": UNITS_PER_ROW, "phase": "rad"}
     return df, units
 
 

@@ -110,8 +110,8 @@ def main(argv=None) -> int:
         args.out.mkdir(parents=True, exist_ok=True)
         write_table(summary, args.out / "bank_summary.parquet", summary_units(summary.columns))
         write_table(metrics, args.out / "bank_metrics.parquet",
-                    {"metric": "", "group": "", "value": "see metric", "n": "", "target": "see metric",
-                     "passed": ""})
+                    {"metric": "", "group": "", "value": "per row; see metric", "n": "",
+                     "target": "per row; see metric", "passed": ""})
         if not sea.empty:
             write_table(sea, args.out / "sea_scores.parquet",
                         {c: ("m" if c in ("truth_hs", "false_hs") else "s" if c == "truth_tp" else

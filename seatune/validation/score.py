@@ -208,7 +208,7 @@ def summary_units(columns) -> dict[str, str]:
         elif c.split("_")[0] in ("gmt", "r44", "xcg", "r55") and c.endswith(("_truth", "_estimate", "_std", "_error")):
             units[c] = "m"
         elif c.startswith("beta44") and c.endswith(("_truth", "_estimate", "_std", "_error")):
-            units[c] = "fraction of critical"
+            units[c] = "dimensionless"
         else:
             units[c] = ""
     return units
