@@ -29,7 +29,10 @@ def _line(stage: str, summary: dict, seconds: float) -> str:
         return _diagnose_line(summary, seconds)
     if stage == "windows":
         return (f"windows: {summary['accepted']} of {summary['candidates']} candidates accepted, "
-                f"{summary['accepted_minutes']:.0f} min free floating ({seconds:.0f} s)")
+                f"{summary['accepted_minutes']:.0f} min free floating; rejected: {summary['rejected']} "
+                f"({seconds:.0f} s)")
+    if stage in ("filter", "sea", "identify") and summary.get("windows") == 0:
+        return f"{stage}: no accepted window: nothing to do ({seconds:.0f} s)"
     if stage == "sea":
         return _sea_line(summary, seconds)
     if stage == "filter":
@@ -85,8 +88,28 @@ def _report_line(summary: dict, seconds: float) -> str:
             f"counted{diag}; summary.parquet written ({seconds:.0f} s): {summary['path']}")
 
 
-def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = (), progress=None) -> None:
-    """Run the stages up to `last`; `progress(stage)` (optional) is called as each stage starts."""
+def _no_window(run) -> str | None:
+    """'0 of 2 candidates accepted: 2 moving (…)' when windows.parquet has no accepted window, else None."""
+    import pandas as pd
+
+    from seatune.pipeline.windows import rejection_text
+
+    table = pd.read_parquet(run.artefact("windows.parquet"), columns=["accepted", "reason"])
+    if table["accepted"].any():
+        return None
+    return f"0 of {len(table)} candidates accepted: {rejection_text(table)}" if len(table) else \
+        "no candidate window in the logs"
+
+
+def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = (), progress=None) -> dict[str, str]:
+    """Run the stages up to `last`; `progress(stage)` (optional) is called as each stage starts.
+
+    Ingest and windows must work (else the UserError). With no accepted window, `tune` / `diagnose` stop with one
+    line naming the rejection reasons; when `last` is the report, the stages after windows that cannot run are
+    left out (a line each), the report is still written from what did run, and a warning line on stderr says
+    why; a stage's UserError (bad input) is raised again once the report is written (exit 2). Returns
+    {stage not run: reason}."""
+    from seatune.errors import UserError
     from seatune.io.run_yaml import Run
     from seatune.pipeline.diagnose import diagnose_stage
     from seatune.pipeline.filter import filter_stage
@@ -106,6 +129,7 @@ def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = (), progress=N
         tuning_parameters(run, model)  # a bad tuning config fails before any stage runs
     run.run_dir.mkdir(parents=True, exist_ok=True)
     remove_stale_temps(run.run_dir)  # temporaries of a killed run would otherwise pile up
+    not_run: dict[str, str] = {}
     stages = {"ingest": lambda f: ingest(run, model, echo=click.echo, force=f),
               "windows": lambda f: windows_stage(run, echo=click.echo, force=f),
               "filter": lambda f: filter_stage(run, model, echo=click.echo, force=f),
@@ -113,19 +137,49 @@ def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = (), progress=N
               "identify": lambda f: identify_stage(run, model, echo=click.echo, force=f),
               "tune": lambda f: tune_stage(run, model, echo=click.echo, force=f),
               "diagnose": lambda f: diagnose_stage(run, model, echo=click.echo, force=f),
-              "report": lambda f: report_stage(run, model, echo=click.echo, force=f)}
+              "report": lambda f: report_stage(run, model, echo=click.echo, force=f, not_run=not_run)}
     redo = False
+    why, cause = "", ""  # why the first stage could not run; every later one (but the report) is left out too
+    failed: UserError | None = None
     for stage in ORDER[: ORDER.index(last) + 1]:
         redo = redo or stage in force
+        if why and stage != "report":
+            not_run[stage] = cause
+            click.echo(f"{stage}: not run ({cause})")
+            continue
         if progress is not None:
             progress(stage)
         start = time.perf_counter()
-        summary = stages[stage](redo)  # later stages see new inputs through their fingerprints
+        try:
+            summary = stages[stage](redo)  # later stages see new inputs through their fingerprints
+        except UserError as err:
+            if last != "report" or stage in ("ingest", "windows", "report"):
+                raise
+            failed, why = err, str(err)
+            not_run[stage] = why
+            cause = f"{stage} did not run"
+            click.echo(f"{stage}: not run: {err}")
+            continue
         click.echo(_line(stage, summary, time.perf_counter() - start))
+        if stage == "windows" and last == "windows" and (empty := _no_window(run)):
+            click.echo(f"warning: no accepted window: {empty}")
+        if stage == "windows" and ORDER.index(last) > ORDER.index("identify"):
+            empty = _no_window(run)
+            if empty and last != "report":
+                raise UserError(str(run.path), "windows", f"no accepted window to {last} on: {empty}")
+            if empty:
+                why, cause = f"no accepted window: {empty}", "no accepted window"
         if stage == "tune" and run.spec.sea.estimate and run.spec.sea.iterations > 1 and not summary.get("skipped"):
             from seatune.pipeline.sea import alternate
 
             alternate(run, model, stages, echo=click.echo)
+    if failed is not None:
+        raise failed
+    if why:
+        shows = ("the windows timeline and the rejection reasons" if cause == "no accepted window"
+                 else "what the stages that ran found")
+        click.echo(f"seatune: warning: {why}; not run: {', '.join(not_run)}; report.html shows {shows}", err=True)
+    return not_run
 
 
 def _command(stage: str, doc: str):

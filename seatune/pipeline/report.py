@@ -18,14 +18,20 @@ import pandas as pd
 
 import seatune
 from seatune.errors import UserError
+from seatune.pipeline.filter import STATS_UNITS
+from seatune.pipeline.identify import NF_UNITS, RAO_UNITS
 from seatune.pipeline.sea import read_sea_states
 
 REQUIRED = ("motions.parquet", "waves.parquet", "windows.parquet", "window_stats.parquet", "raos.parquet",
             "natural_frequencies.parquet")
-OPTIONAL = ("sea_states.parquet", "tuning_history.parquet", "validation.parquet", "tuned_vessel.yaml",
-            "diagnosis.parquet",
-            "diagnosis_residuals.parquet",
-            "prediction.parquet")
+OPTIONAL = ("window_spectra.parquet", "sea_states.parquet", "tuning_history.parquet", "validation.parquet",
+            "tuned_vessel.yaml", "diagnosis.parquet", "diagnosis_residuals.parquet", "prediction.parquet")
+# What each stage after windows writes: left out of the page when the stage did not run this time
+STAGE_ARTEFACTS = {"filter": ("window_stats.parquet", "window_spectra.parquet"), "sea": ("sea_states.parquet",),
+                   "identify": ("raos.parquet", "natural_frequencies.parquet"),
+                   "tune": ("tuning_history.parquet", "validation.parquet", "tuned_vessel.yaml"),
+                   "diagnose": ("diagnosis.parquet", "diagnosis_residuals.parquet")}
+SPECTRUM_OMEGA_MAX = 2.5  # rad/s: the response spectra plotted up to here (or the database's last frequency)
 TRACK_COLUMNS = ["time", "record", "lat", "lon", "sog", "heading_deg"]
 
 
@@ -46,7 +52,7 @@ def posterior_means(history: pd.DataFrame | None) -> dict[str, float]:
 
 
 def tuned_model_raos(run, vessel, loading, windows: pd.DataFrame, motions: pd.DataFrame,
-                     raos: pd.DataFrame) -> pd.DataFrame:
+                     raos: pd.DataFrame, hc=None) -> pd.DataFrame:
     """The model's effective RAO with `loading` on the aggregate rows of raos.parquet: (window_id, channel,
     omega, model_tuned), window_id being the aggregate's '+'-joined members."""
     from seatune.io.hindcast_readers import read_hindcast
@@ -55,7 +61,7 @@ def tuned_model_raos(run, vessel, loading, windows: pd.DataFrame, motions: pd.Da
     agg = raos[raos["scope"] == "aggregate"]
     if agg.empty:
         return pd.DataFrame(columns=["window_id", "channel", "omega", "model_tuned"])
-    hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
+    hc = hc if hc is not None else read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
     sea = read_sea_states(run)
     omega = np.sort(agg["omega"].unique())
     channels = list(dict.fromkeys(agg["channel"]))
@@ -77,6 +83,43 @@ def tuned_model_raos(run, vessel, loading, windows: pd.DataFrame, motions: pd.Da
     return pd.concat(out, ignore_index=True)
 
 
+def model_spectra(run, vessel, loadings: dict, windows: pd.DataFrame, motions: pd.DataFrame,
+                  spectra: pd.DataFrame, hc=None) -> pd.DataFrame:
+    """The measured Welch spectrum of the main channel of each DOF (heave, roll, pitch) per accepted window beside
+    the model's with each loading in `loadings` ({"prior": …, "tuned": …}) in the window's directional sea:
+    (window_id, channel, omega, measured, <one column per loading>) in channel unit²·s/rad. The model's S_xx is
+    |H_eff|² S_ζζ with identify's effective RAO, so it is the spectrum whose ratio identify calls the RAO."""
+    from seatune.io.hindcast_readers import read_hindcast
+    from seatune.pipeline.identify import effective_model_rao, mode_channels, window_wave_spectrum
+
+    columns = ["window_id", "channel", "omega", "measured", *loadings]
+    if spectra is None or spectra.empty:
+        return pd.DataFrame(columns=columns)
+    channels = [m.channel for m in mode_channels(vessel, set(spectra["channel"]))]
+    hc = hc if hc is not None else read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
+    sea = read_sea_states(run)
+    top = min(SPECTRUM_OMEGA_MAX, float(vessel.db.omega.max()))
+    spectra = spectra[spectra["channel"].isin(channels) & (spectra["omega"] > 0) & (spectra["omega"] <= top)]
+    out = []
+    for row in windows[windows["accepted"] & windows["window_id"].isin(spectra["window_id"].unique())].itertuples():
+        mine = spectra[spectra["window_id"] == row.window_id]
+        omega = np.sort(mine["omega"].unique())
+        mid = row.start + (row.end - row.start) / 2
+        k = int(np.clip(motions["time"].searchsorted(mid), 0, len(motions) - 1))
+        wave, dirs, _ = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], omega, sea)
+        s_wave = wave.sum(axis=1) * np.radians(np.diff(np.r_[dirs, dirs[0] + 360.0]).mean())  # S_ζζ [m²·s/rad]
+        have = [c for c in channels if c in set(mine["channel"])]
+        part = pd.DataFrame({"window_id": row.window_id, "channel": np.repeat(have, omega.size),
+                             "omega": np.tile(omega, len(have))})
+        measured = mine.set_index(["channel", "omega"])["S"]
+        part["measured"] = measured.reindex(pd.MultiIndex.from_arrays([part["channel"], part["omega"]])).to_numpy()
+        for name, loading in loadings.items():
+            rao = effective_model_rao(vessel, loading, have, omega, dirs, wave, row.heading_deg)  # (nch, nw)
+            part[name] = (rao**2 * s_wave[None, :]).ravel()
+        out.append(part)
+    return pd.concat(out, ignore_index=True) if out else pd.DataFrame(columns=columns)
+
+
 def _display_path(path: Path) -> str:
     try:
         return str(path.relative_to(Path.cwd()))
@@ -84,7 +127,9 @@ def _display_path(path: Path) -> str:
         return str(path)
 
 
-def report_stage(run, vessel, echo=print, force: bool = False) -> dict:
+def report_stage(run, vessel, echo=print, force: bool = False, not_run: dict[str, str] | None = None) -> dict:
+    """`not_run`: {stage: why} of the stages that could not run this time (no accepted window, a stage's error):
+    their artefacts, even left from an earlier run, stay off the page, which says why."""
     from seatune.io.atomic import atomic_path
     from seatune.io.parquet import column_units, table_metadata, write_table
     from seatune.io.rundir import fingerprint, is_fresh, recorded_fingerprint
@@ -93,25 +138,32 @@ def report_stage(run, vessel, echo=print, force: bool = False) -> dict:
     from seatune.report.inputs import ReportInputs
     from seatune.report.summary import key_figures
 
+    not_run = dict(not_run or {})
+    left_out = {name for stage in not_run for name in STAGE_ARTEFACTS.get(stage, ())}
     for name in REQUIRED:
-        if not run.artefact(name).exists():
+        if name not in left_out and not run.artefact(name).exists():
             raise UserError(str(run.path), "run_dir", f"{run.artefact(name)} is missing: run the stages before "
                                                       "the report first (`seatune tune`)")
-    src = [run.artefact(n) for n in REQUIRED + OPTIONAL if run.artefact(n).exists()]
+    src = [run.artefact(n) for n in REQUIRED + OPTIONAL if n not in left_out and run.artefact(n).exists()]
     fp = fingerprint(src + [run.vessel_path, run.hindcast_path],
-                     {"stage": "report", "run": run.spec.model_dump(), "version": seatune.__version__})
+                     {"stage": "report", "run": run.spec.model_dump(), "version": seatune.__version__,
+                      "not_run": not_run})
     out_html, out_sum = run.artefact("report.html"), run.artefact("summary.parquet")
     if not force and is_fresh([out_sum], fp) and html_fingerprint(out_html) == fp:
         return {"skipped": True, "path": _display_path(out_html)}
 
     def optional(name):
-        return pd.read_parquet(run.artefact(name)) if run.artefact(name).exists() else None
+        return pd.read_parquet(run.artefact(name)) if name not in left_out and run.artefact(name).exists() else None
+
+    def stage_table(name, units):  # the table, or an empty one with its columns when its stage did not run
+        return pd.DataFrame(columns=list(units)) if name in left_out else pd.read_parquet(run.artefact(name))
 
     motions = pd.read_parquet(run.artefact("motions.parquet"),
                               columns=[c for c in TRACK_COLUMNS
                                        if c in column_units(run.artefact("motions.parquet"))])
-    windows, raos = pd.read_parquet(run.artefact("windows.parquet")), pd.read_parquet(run.artefact("raos.parquet"))
+    windows, raos = pd.read_parquet(run.artefact("windows.parquet")), stage_table("raos.parquet", RAO_UNITS)
     history, diag_path = optional("tuning_history.parquet"), run.artefact("diagnosis.parquet")
+    diagnosed = "diagnosis.parquet" not in left_out and diag_path.exists()
     dt = np.diff(motions["time"].to_numpy()[:2]).astype("timedelta64[ns]").astype(float) * 1e-9
     step = max(int(round(1.0 / float(dt[0]))), 1) if dt.size and dt[0] > 0 else 1
     inp = ReportInputs(
@@ -125,23 +177,27 @@ def report_stage(run, vessel, echo=print, force: bool = False) -> dict:
         ingest_meta=table_metadata(run.artefact("motions.parquet")),
         motion_units=column_units(run.artefact("motions.parquet")), track=motions.iloc[::step].reset_index(drop=True),
         waves=pd.read_parquet(run.artefact("waves.parquet")), windows=windows,
-        window_stats=pd.read_parquet(run.artefact("window_stats.parquet")), raos=raos,
-        natural_frequencies=pd.read_parquet(run.artefact("natural_frequencies.parquet")), history=history,
+        window_stats=stage_table("window_stats.parquet", STATS_UNITS), raos=raos,
+        natural_frequencies=stage_table("natural_frequencies.parquet", NF_UNITS), history=history,
         validation=optional("validation.parquet"), prediction=optional("prediction.parquet"),
         prediction_units=column_units(run.artefact("prediction.parquet")) if run.artefact("prediction.parquet").exists()
         else {},
-        diagnosis=pd.read_parquet(diag_path) if diag_path.exists() else None,
-        diagnosis_units=column_units(diag_path) if diag_path.exists() else {},
-        diagnosis_residuals=(pd.read_parquet(run.artefact("diagnosis_residuals.parquet"))
-                             if run.artefact("diagnosis_residuals.parquet").exists() else None),
-        sea_states=read_sea_states(run),
+        diagnosis=pd.read_parquet(diag_path) if diagnosed else None,
+        diagnosis_units=column_units(diag_path) if diagnosed else {},
+        diagnosis_residuals=optional("diagnosis_residuals.parquet"),
+        sea_states=None if "sea_states.parquet" in left_out else read_sea_states(run), not_run=not_run,
         artefacts=[(p.name, p.stat().st_size, recorded_fingerprint(p) or "") for p in sorted(run.run_dir.iterdir())
                    if p.is_file() and not p.name.startswith(".") and p.name not in ("report.html", "summary.parquet")])
+    from seatune.io.hindcast_readers import read_hindcast
+
+    hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format) if windows["accepted"].any() else None
     means = posterior_means(history)
+    loadings = {"prior": vessel.base_loading}
     if means:
         try:
             loading = vessel.loading(**means)
-            inp.tuned_raos = tuned_model_raos(run, vessel, loading, windows, motions, raos)
+            inp.tuned_raos = tuned_model_raos(run, vessel, loading, windows, motions, raos, hc)
+            loadings["tuned"] = loading
             modes = coupled_modes(vessel.db, loading)
             inp.tuned_omega_n = dict(zip(("Heave", "Roll", "Pitch"), modes.omega[0], strict=True))
             inp.mode_shapes = mode_shape_words(modes, "tuned")
@@ -151,6 +207,7 @@ def report_stage(run, vessel, echo=print, force: bool = False) -> dict:
         inp.tuned_note = "no tuning history: only the prior model is shown"
     if not inp.mode_shapes:
         inp.mode_shapes = mode_shape_words(coupled_modes(vessel.db, vessel.base_loading), "prior")
+    inp.spectra = model_spectra(run, vessel, loadings, windows, motions, optional("window_spectra.parquet"), hc)
     row, units = key_figures(inp)
     page = build_report(inp, row, units)
     meta = {"fingerprint": fp, "inputs": [p.name for p in src]}
@@ -160,4 +217,4 @@ def report_stage(run, vessel, echo=print, force: bool = False) -> dict:
     return {"skipped": False, "path": _display_path(out_html), "figures": page.count("<img "),
             "kb": os.path.getsize(out_html) / 1024.0, "defects": row["defects_repaired"],
             "error_prior": row["holdout_sigma_error_prior"], "error_tuned": row["holdout_sigma_error_tuned"],
-            "diagnosis": diag_path.exists()}
+            "diagnosis": diagnosed, "not_run": not_run}

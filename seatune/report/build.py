@@ -9,6 +9,8 @@ import re
 import numpy as np
 import pandas as pd
 
+from seatune.diagnosis.select import HOLDOUT_MIN
+from seatune.pipeline.windows import rejection_counts, rejection_text
 from seatune.report import html as H
 from seatune.report import plots as P
 from seatune.report.inputs import ReportInputs
@@ -32,6 +34,9 @@ DEFECTS = {
     "samples_interpolated": "grid samples interpolated across missing samples of a source (within max_gap_s)",
     "samples_masked": "grid samples a source leaves empty inside a record (masked, NaN)",
     "samples_outside_imu": "samples before the first / after the last IMU sample trimmed",
+    # "implausible <topic> <field>": the plausibility gate (seatune/physics/plausibility.py)
+    "implausible": "outside ingest.plausibility (|f| ≤ 5 g, |angle| ≤ 90°, |rate| ≤ 5 rad/s, finite, stamp near "
+                   "its receive time by default): masked (NaN; a wild stamp drops its row)",
 }
 
 
@@ -41,6 +46,40 @@ def _pct(x: float) -> str:
 
 def _num(x: float, digits: int = 4) -> str:
     return H.fmt(float(x), digits)
+
+
+def tuned_worse(row: dict) -> str:
+    """The warning when the tuned model predicts the held-out windows worse than the prior ('' when not)."""
+    parts = []
+    for label, key in (("all channels", "holdout_sigma_error"),
+                       ("the channels the tuned parameters move", "holdout_sigma_error_informative")):
+        prior, tuned = row.get(f"{key}_prior", np.nan), row.get(f"{key}_tuned", np.nan)
+        if np.isfinite(prior) and np.isfinite(tuned) and tuned > prior:
+            parts.append(f"{label} {_pct(prior)} (prior) → {_pct(tuned)} (tuned)")
+    if not parts:
+        return ""
+    held = row.get("holdout_windows", 0)
+    where = f"on the {held} held-out window(s)" if held else "on the training windows (none was held out)"
+    return (f"The tuned model predicts the measured statistics worse than the prior {where}: mean "
+            f"|ln(predicted/measured)| on {'; on '.join(parts)}. The tuned loading may fit the training windows' "
+            "sea or noise rather than the vessel: check the sea, the tuned channels and the priors (Validation).")
+
+
+def alerts(inp: ReportInputs, row: dict) -> str:
+    """Warning cards at the top of the page."""
+    out = ""
+    w = inp.windows
+    if not len(w) or not w["accepted"].any():
+        out += H.alert("No window accepted", f"0 of {len(w)} candidate windows accepted: "
+                       f"{rejection_text(w) if len(w) else 'no candidate'}. Nothing was filtered, identified or "
+                       "tuned; the Windows section shows the timeline and the reason of every candidate.")
+    elif inp.not_run:
+        out += H.alert("Stages not run", "; ".join(f"{s}: {why}" for s, why in inp.not_run.items())
+                       + ". Their sections show nothing from earlier runs.")
+    worse = tuned_worse(row)
+    if worse:
+        out += H.alert("Tuning made the held-out prediction worse", worse)
+    return out
 
 
 def summary_section(inp: ReportInputs, row: dict, units: dict[str, str]) -> str:
@@ -75,7 +114,7 @@ def summary_section(inp: ReportInputs, row: dict, units: dict[str, str]) -> str:
                           f"{_pct(row['holdout_sigma_error_informative_prior'])} → "
                           f"{_pct(row['holdout_sigma_error_informative_tuned'])}",
                           "channels the tuned parameters move by ≥ 5 % over the prior (A2 eq. 9)"))
-    body = H.cards(tiles)
+    body = alerts(inp, row) + H.cards(tiles)
     body += H.table(pd.DataFrame({"log": inp.logs}), caption="Logs") + H.para(f"Run file: {inp.run_file}")
     post = posterior_table(inp.history)
     if len(post):
@@ -92,7 +131,8 @@ def summary_section(inp: ReportInputs, row: dict, units: dict[str, str]) -> str:
 
 def defects_section(inp: ReportInputs) -> str:
     counts = defect_counts(inp.ingest_meta)
-    rows = [{"defect": k.replace("_", " "), "count": v, "what ingest did": DEFECTS.get(k, "counted")}
+    rows = [{"defect": k.replace("_", " "), "count": v,
+             "what ingest did": DEFECTS.get(k) or DEFECTS.get(k.split(" ")[0], "counted")}
             for k, v in counts.items()]
     body = H.table(pd.DataFrame(rows, columns=["defect", "count", "what ingest did"]),
                    caption="Defect counts recorded by ingest (motions.parquet metadata)",
@@ -102,6 +142,13 @@ def defects_section(inp: ReportInputs) -> str:
              if truncated else H.para("No log was cut short.", ""))
     warnings = inp.ingest_meta.get("warnings") or []
     body += "".join(H.note(f"warning: {w}") for w in warnings) if warnings else H.para("Ingest raised no warning.", "")
+    waves = inp.waves
+    if {"sea_corners", "stencil_corners"} <= set(waves.columns):  # hindcast readers that mask land and ice
+        partial = int((waves["sea_corners"] < waves["stencil_corners"]).sum())
+        body += (H.note(f"{partial} of {len(waves)} track points used a partial hindcast stencil: grid corners on "
+                        "land or ice left out, the sea corners' interpolation weights renormalised")
+                 if partial else H.para(f"All {len(waves)} track points had a full hindcast stencil (no land or ice "
+                                        "corner).", ""))
     return H.section("defects", "Input defects repaired or masked", body,
                      "Nothing is dropped silently: every repair, mask and cut that ingest made to the logs is "
                      "counted here (DESIGN §6). Highlighted rows are non-zero.")
@@ -127,6 +174,10 @@ def windows_section(inp: ReportInputs) -> str:
     units = {"start": "UTC", "end": "UTC", "duration": "min", "heading": "deg", "SOG": "m/s", "Hs": "m", "Tp": "s",
              "waves from": "deg"}
     day = "" if days > 1 else f" on {w['start'].iloc[0]:%Y-%m-%d}"
+    counts = rejection_counts(w)
+    if counts:
+        body += H.table(pd.DataFrame(counts, columns=["reason", "candidates"]), wide=("reason",),
+                        caption=f"Rejected candidates by reason ({sum(n for _, n in counts)} of {len(w)})")
     body += H.table(t, units, caption=f"Candidate windows (windows.parquet), times UTC{day}", digits=3,
                     wide=("reason",), row_class=lambda r: "" if r["accepted"] else "rejected")
     return H.section("windows", "Windows", body,
@@ -239,6 +290,31 @@ def raos_section(inp: ReportInputs) -> str:
                      "90° = waves from starboard).")
 
 
+def spectra_section(inp: ReportInputs) -> str | None:
+    """Per accepted window: the measured response spectra of the main heave / roll / pitch channels against the
+    prior and tuned model's."""
+    sp = inp.spectra
+    if sp is None or sp.empty:
+        return None
+    roles = {} if inp.validation is None else dict(zip(inp.validation["window_id"].astype(str),
+                                                       inp.validation["role"], strict=False))
+    windows = inp.windows.assign(key=inp.windows["window_id"].astype(str)).set_index("key")
+    units = {c: inp.channel_unit(c) for c in sp["channel"].unique()}
+    body = ""
+    for wid, part in sp.groupby(sp["window_id"].astype(str), sort=False):
+        w = windows.loc[wid]
+        role = {"holdout": ", held out of tuning", "train": ", a training window"}.get(roles.get(wid, ""), "")
+        title = f"W{wid}: heading {w['heading_deg']:.0f}°, hindcast Hs {w['hs']:.2f} m, Tp {w['tp']:.1f} s{role}"
+        body += H.figure(P.png(P.response_spectra(part, units, title)),
+                         f"W{wid}: one-sided response spectrum S(ω) [channel unit²·s/rad; angles in deg²·s/rad] of the "
+                         "main heave, roll and pitch channels: measured (Welch, filter stage; black) against the "
+                         "model's |H_eff(ω)|²·S_ζζ(ω) in the window's directional sea with the prior loading (blue "
+                         "dashed) and the tuned loading (orange).", f"response spectra W{wid}")
+    return H.section("spectra", "Measured vs model response spectra", body,
+                     "Where in frequency the model over- or under-predicts each window's motions: the σ that tuning "
+                     "fits is the square root of the area under these curves.")
+
+
 def mode_shape_words(modes, which: str) -> dict[str, str]:
     """The model's coupled mode shapes (`physics.modes.Modes`, first condition) in words, by DOF."""
     draft = float(modes.draft[0])
@@ -321,7 +397,9 @@ def history_correlation(history: pd.DataFrame) -> tuple[list[str], np.ndarray] |
 def tuning_section(inp: ReportInputs) -> str:
     h = inp.history
     if h is None or h.empty:
-        return H.section("tuning", "Tuning", H.note("tuning_history.parquet is absent: the run was not tuned."))
+        why = inp.not_run.get("tune")
+        return H.section("tuning", "Tuning", H.note(f"Not tuned this time: {why}." if why else
+                                                    "tuning_history.parquet is absent: the run was not tuned."))
     units = {p: PARAMETER_UNITS.get(p, "") for p in h["parameter"].unique()}
     backend = str(h["backend"].iloc[0])
     body = H.figure(P.png(P.convergence(h, units)),
@@ -351,12 +429,15 @@ def tuning_section(inp: ReportInputs) -> str:
     return H.section("tuning", f"Tuning ({backend.upper()})", body)
 
 
-def validation_section(inp: ReportInputs) -> str:
+def validation_section(inp: ReportInputs, warning: str = "") -> str:
     v = inp.validation
     if v is None or v.empty:
-        return H.section("validation", "Validation", H.note("validation.parquet is absent."))
+        why = inp.not_run.get("tune")
+        return H.section("validation", "Validation", H.note(f"Not validated: {why}." if why else
+                                                            "validation.parquet is absent."))
     units = {c: inp.channel_unit(c) for c in v["measurement"].str.split(":").str[0].unique()}
-    body = H.figure(P.png(P.validation_plots(v, units)),
+    body = H.alert("Tuning made the held-out prediction worse", warning) if warning else ""
+    body += H.figure(P.png(P.validation_plots(v, units)),
                     "Measured σ against the model's prediction with the prior (blue) and tuned (orange) loading; "
                     "open markers: held-out windows not used in tuning. Left: ratio predicted/measured [-] (band "
                     "0.8–1.25). Right: values in the channel unit (angles in deg, rates in deg/s, specific force in "
@@ -377,6 +458,36 @@ def validation_section(inp: ReportInputs) -> str:
     return H.section("validation", "Validation", body,
                      "Every accepted window predicted with the prior and the tuned loading; every third window (by "
                      "`tuning.holdout_every`) is held out of tuning and validates it.")
+
+
+def _decision(r) -> str:
+    """Why diagnose named or passed over a candidate (seatune.diagnosis.select's rule, in words)."""
+    if r.effect == "none":
+        return "baseline: the loading refitted without an effect"
+    if r.selected:
+        return "named: the strongest eligible candidate"
+    why = []
+    if np.isfinite(r.gain_holdout):
+        if not r.gain_train > r.bic_penalty:
+            why.append("training gain ≤ BIC penalty")
+        if not r.gain_holdout > HOLDOUT_MIN:
+            why.append(f"held-out gain ≤ {HOLDOUT_MIN:g} nats")
+    elif not r.gain_train - r.bic_penalty > HOLDOUT_MIN:
+        why.append(f"no held-out window: training gain − BIC penalty ≤ {HOLDOUT_MIN:g} nats")
+    if r.at_bound:
+        why.append(f"at a bound: {r.at_bound}")
+    if r.eligible and not why:
+        return "eligible; a stronger candidate was named"
+    return "passed over: " + "; ".join(why or ["not eligible"])
+
+
+def _parameters(r) -> str:
+    """'q 0.0 ± 20 1/rad, …' from the JSON columns fitted, fitted_std, fitted_units."""
+    fitted = json.loads(r.fitted or "{}")
+    std = json.loads(getattr(r, "fitted_std", "") or "{}")
+    units = json.loads(getattr(r, "fitted_units", "") or "{}")
+    return ", ".join(f"{k} {v:.3g}" + (f" ± {std[k]:.2g}" if k in std else "")
+                     + (f" {units[k].replace('^2', '²')}" if units.get(k) else "") for k, v in fitted.items()) or "–"
 
 
 def diagnosis_section(inp: ReportInputs) -> str | None:
@@ -400,14 +511,23 @@ def diagnosis_section(inp: ReportInputs) -> str | None:
                                                       + row["bands_before"], "")
     if len(chosen):
         body += H.para("Left after adding it: " + row["bands_after"], "")
+    nat = {"held-out gain": "nat", "training gain": "nat", "BIC penalty": "nat"}
+    deciding = pd.DataFrame({"effect": d["effect"], "decision": [_decision(r) for r in d.itertuples()],
+                             "held-out gain": d["gain_holdout"], "training gain": d["gain_train"],
+                             "BIC penalty": d["bic_penalty"], "parameters": [_parameters(r) for r in d.itertuples()]})
+    body += H.table(deciding, nat, wide=("decision", "parameters"),
+                    caption="Evidence per candidate effect (diagnosis.parquet): gains are log-likelihood over the "
+                    f"loading refitted without effect; an effect is named when its held-out gain exceeds "
+                    f"{HOLDOUT_MIN:g} nats and its training gain the BIC penalty, with no parameter at a bound",
+                    row_class=lambda r: "flag" if r["decision"].startswith("named") else "")
     cols = ["effect", "fitted", "gain_train", "gain_holdout", "bic_penalty", "at_bound", "eligible", "selected",
             "gap_before_holdout", "gap_after_holdout", "sigma_error_before_holdout", "sigma_error_after_holdout"]
     shown = d[cols].assign(fitted=d["fitted"].map(
         lambda text: ", ".join(f"{k} {v:.3g}" for k, v in json.loads(text).items()) or "–"))
     units = {**inp.diagnosis_units, "fitted": "units: see diagnosis.parquet fitted_units"}
-    body += H.table(shown, units, caption="Evidence per candidate effect (diagnosis.parquet): gains "
-                    "are log-likelihood over the loading refitted without effect; gaps are the systematic RMS of "
-                    "ln(measured/model) in the bins the candidate changes")
+    body += H.details("All evidence columns: gaps and σ errors before / after on the held-out windows",
+                      H.table(shown, units, caption="gaps are the systematic RMS of ln(measured/model) in the bins "
+                                                    "the candidate changes"))
     res = inp.diagnosis_residuals
     if res is not None and not res.empty:
         used = res[res["used"]]
@@ -469,10 +589,19 @@ def artefacts_section(inp: ReportInputs) -> str:
 
 def build_report(inp: ReportInputs, row: dict, units: dict[str, str]) -> str:
     """The HTML page (a string)."""
-    parts = [summary_section(inp, row, units), defects_section(inp), windows_section(inp), filter_section(inp),
-             sea_section(inp), raos_section(inp), natural_frequencies_section(inp, inp.tuned_omega_n),
-             tuning_section(inp),
-             validation_section(inp), prediction_section(inp), diagnosis_section(inp), artefacts_section(inp)]
+    def unless_not_run(stage: str, anchor: str, title: str, make):
+        why = inp.not_run.get(stage)
+        return H.section(anchor, title, H.note(f"Not run this time: {why}.")) if why else make()
+
+    parts = [summary_section(inp, row, units), defects_section(inp), windows_section(inp),
+             unless_not_run("filter", "filter", "Filter cutoffs and statistics", lambda: filter_section(inp)),
+             sea_section(inp),
+             unless_not_run("identify", "raos", "Measured vs model RAOs", lambda: raos_section(inp)),
+             spectra_section(inp),
+             unless_not_run("identify", "natural-frequencies", "Natural frequencies",
+                            lambda: natural_frequencies_section(inp, inp.tuned_omega_n)),
+             tuning_section(inp), validation_section(inp, tuned_worse(row)), prediction_section(inp),
+             diagnosis_section(inp), artefacts_section(inp)]
     sections = []
     for body in parts:
         if body is None:

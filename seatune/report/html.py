@@ -20,8 +20,8 @@ header { background: #15324d; color: #fff; padding: 22px 32px 16px; }
 header h1 { margin: 0 0 4px; font-size: 26px; font-weight: 600; }
 header p { margin: 0; color: #c9d6e3; }
 nav { position: sticky; top: 0; z-index: 2; background: #eef2f6; border-bottom: 1px solid var(--line);
-      padding: 6px 32px; font-size: 13.5px; }
-nav a { color: var(--accent); text-decoration: none; margin-right: 14px; white-space: nowrap; }
+      padding: 6px 32px; font-size: 13.5px; display: flex; flex-wrap: wrap; gap: 2px 16px; }
+nav a { color: var(--accent); text-decoration: none; white-space: nowrap; }
 main { max-width: 1180px; margin: 0 auto; padding: 8px 32px 48px; }
 section { border-bottom: 1px solid var(--line); padding: 8px 0 18px; }
 h2 { font-size: 21px; margin: 22px 0 6px; color: #15324d; }
@@ -46,6 +46,9 @@ figcaption { color: var(--muted); font-size: 13.5px; max-width: 1000px; margin-t
 .card .v { font-size: 19px; font-weight: 600; }
 .card .s { font-size: 12.5px; color: var(--muted); overflow-wrap: anywhere; }
 .good { color: var(--ok); } .bad { color: var(--bad); } .warn { color: var(--warn); }
+.alert { border: 1px solid #e8b4b0; border-left: 6px solid var(--bad); border-radius: 6px; background: #fdf0ef;
+         padding: 8px 14px; margin: 10px 0; }
+.alert .k { color: var(--bad); font-weight: 600; }
 .note { border-left: 4px solid var(--warn); background: #fff8e6; padding: 6px 12px; margin: 8px 0; }
 details summary { cursor: pointer; color: var(--accent); margin: 6px 0; }
 footer { color: var(--muted); font-size: 12.5px; max-width: 1180px; margin: 0 auto; padding: 0 32px 32px; }
@@ -79,7 +82,8 @@ def fmt(value, digits: int = 4) -> str:
 
 
 def header_label(name: str, unit: str | None) -> str:
-    return f'{esc(name)}<br><span class="unit">[{esc(unit)}]</span>' if unit else esc(name)
+    shown = unit and unit not in ("text", "per row")  # the Parquet markers of text and row-dependent units
+    return f'{esc(name)}<br><span class="unit">[{esc(unit)}]</span>' if shown else esc(name)
 
 
 def table(df: pd.DataFrame, units: dict[str, str] | None = None, caption: str | None = None,
@@ -113,6 +117,11 @@ def cards(items: Iterable[tuple[str, str, str]]) -> str:
     return '<div class="cards">' + "".join(
         f'<div class="card"><div class="k">{esc(k)}</div><div class="v">{esc(v)}</div><div class="s">{esc(s)}</div>'
         f"</div>" for k, v, s in items) + "</div>"
+
+
+def alert(title: str, text: str) -> str:
+    """A warning card: something the reader must not miss (no window accepted, tuning made things worse)."""
+    return f'<div class="alert" role="alert"><div class="k">{esc(title)}</div><div>{esc(text)}</div></div>'
 
 
 def note(text: str) -> str:

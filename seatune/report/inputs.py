@@ -49,6 +49,9 @@ class ReportInputs:
     diagnosis_residuals: pd.DataFrame | None = None  # diagnosis_residuals.parquet
     sea_states: pd.DataFrame | None = None  # sea_states.parquet (the sea estimated from the motions)
     artefacts: list[tuple[str, int, str]] = field(default_factory=list)  # (file, bytes, fingerprint)
+    # measured Welch spectrum of each DOF's main channel per window and the model's (prior, tuned) [unit²·s/rad]
+    spectra: pd.DataFrame | None = None
+    not_run: dict[str, str] = field(default_factory=dict)  # stages that could not run this time: why
 
     def channel_unit(self, channel: str) -> str:
         return self.motion_units.get(channel, "")

@@ -156,6 +156,43 @@ def rao_sector(rows: pd.DataFrame, units: dict[str, str], ncols: int = 4) -> Fig
     return fig
 
 
+def spectrum_unit(unit: str) -> tuple[float, str]:
+    """(factor, label) of a response spectrum of a channel in `unit`, angles in degrees: 'deg²·s/rad'."""
+    f, label = display_unit(unit)
+    label = f"({label})" if "/" in label or "·" in label else label or "1"
+    return f * f, f"{label}²·s/rad"
+
+
+def response_spectra(rows: pd.DataFrame, units: dict[str, str], title: str) -> Figure:
+    """One window: the measured Welch spectrum of each main channel against the model's with the prior and the
+    tuned loading (rows of `model_spectra`: channel, omega, measured, prior[, tuned])."""
+    channels = list(dict.fromkeys(rows["channel"]))
+    fig = Figure(figsize=(11.5, 3.4))
+    fig.subplots_adjust(left=0.07, right=0.99, bottom=0.15, top=0.72, wspace=0.3)
+    axs = np.atleast_1d(fig.subplots(1, max(len(channels), 1), squeeze=False)).ravel()
+    for ax, ch in zip(axs, channels, strict=False):
+        part = rows[rows["channel"] == ch].sort_values("omega")
+        f, label = spectrum_unit(units.get(ch, ""))
+        om = part["omega"].to_numpy()
+        ax.plot(om, f * part["measured"].to_numpy(dtype=float), "-", color=MEASURED, lw=1.0,
+                label="measured (Welch, filter stage)")
+        ax.plot(om, f * part["prior"].to_numpy(dtype=float), "--", color=PRIOR, lw=1.6, label="model, prior loading")
+        if "tuned" in part and part["tuned"].notna().any():
+            ax.plot(om, f * part["tuned"].to_numpy(dtype=float), "-", color=TUNED, lw=1.6,
+                    label="model, tuned loading")
+        ax.set_title(ch, fontsize=10)
+        ax.set_ylabel(f"S [{label}]", fontsize=9)
+        ax.set_xlabel("ω [rad/s]", fontsize=9)
+        ax.set_xlim(om.min(), om.max())
+        ax.set_ylim(bottom=0)
+        ax.tick_params(labelsize=8)
+        ax.grid(alpha=0.3)
+    handles, labels = axs[0].get_legend_handles_labels()
+    fig.suptitle(title, x=0.07, y=0.985, ha="left", fontsize=10.5)
+    fig.legend(handles, labels, loc="upper left", bbox_to_anchor=(0.065, 0.915), ncols=3, fontsize=9, frameon=False)
+    return fig
+
+
 def natural_frequency_plot(nf: pd.DataFrame, tuned: dict[str, float] | None) -> Figure:
     """Per DOF: each window's ω_n with its interval, the combined value (bold), the prior and tuned model."""
     nf = nf[nf["derived"].isna()] if "derived" in nf else nf

@@ -13,8 +13,8 @@ DOFS = ("Heave", "Roll", "Pitch")
 # always present (NaN when not derived): a stable schema
 DERIVED = {"displacement": "t", "r44": "m", "gm": "m", "r55": "m"}
 PARAMETER_UNITS = {"mass": "kg", "displacement": "m^3", "xcg": "m", "ycg": "m", "zcg": "m", "r44": "m", "r55": "m",
-                   "r66": "m", "gmt_fs": "m", "gml_fs": "m", "beta33": "fraction of critical",
-                   "beta44": "fraction of critical", "beta55": "fraction of critical"}
+                   "r66": "m", "gmt_fs": "m", "gml_fs": "m", "beta33": "dimensionless",
+                   "beta44": "dimensionless", "beta55": "dimensionless"}
 NOT_DEFECTS = ("records",)  # ingest counts that describe the data rather than a repair
 
 
@@ -111,13 +111,14 @@ def key_figures(inp: ReportInputs) -> tuple[dict, dict[str, str]]:
         row["train_windows"] = int(inp.history["update"].max())
     e_prior, e_tuned, n_held = held_out_error(inp.validation)
     row.update(holdout_windows=n_held, holdout_sigma_error_prior=e_prior, holdout_sigma_error_tuned=e_tuned)
-    units.update(train_windows="", holdout_windows="", holdout_sigma_error_prior="",
-                 holdout_sigma_error_tuned="")
+    units.update(train_windows="", holdout_windows="", holdout_sigma_error_prior="dimensionless",
+                 holdout_sigma_error_tuned="dimensionless")
     moved = inp.validation
     if moved is not None and "informative" in moved:  # the channels the tuned parameters move (tune stage)
         moved = moved[moved["informative"].astype(bool)]
         i_prior, i_tuned, _ = held_out_error(moved) if len(moved) else (np.nan, np.nan, 0)
         row.update(holdout_sigma_error_informative_prior=i_prior, holdout_sigma_error_informative_tuned=i_tuned)
-        units.update(holdout_sigma_error_informative_prior="", holdout_sigma_error_informative_tuned="")
+        units.update(holdout_sigma_error_informative_prior="dimensionless",
+                     holdout_sigma_error_informative_tuned="dimensionless")
     row.setdefault("train_windows", 0)
     return row, units
