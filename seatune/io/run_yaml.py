@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import Field, field_validator
+from pydantic import Discriminator, Field, Tag, field_validator
 
 from seatune.errors import UserError
 from seatune.io.vessel_yaml import check_loading_names
@@ -21,12 +21,49 @@ from seatune.pipeline.windows import WindowSettings
 LogFormat = Literal["auto", "mcap", "ros1bag", "ros2bag", "csv", "parquet"]
 
 
+class ColumnSpec(Strict):
+    """A table-log column: its seatune name and its unit (converted to SI at ingest; no unit guessing)."""
+
+    name: str | None = None  # None: keeps the log column's name
+    unit: str | None = None
+
+    @field_validator("unit")
+    @classmethod
+    def _known_unit(cls, v):
+        from seatune.io.log_readers import COLUMN_UNITS
+
+        if v is not None and v not in COLUMN_UNITS:
+            raise ValueError(f"unknown unit {v!r} (one of {', '.join(COLUMN_UNITS)})")
+        return v
+
+
+# log column → seatune name, or {name, unit}; a string or a mapping decides the branch (one clear error)
+Columns = dict[str, Annotated[Annotated[str, Tag("name")] | Annotated[ColumnSpec, Tag("spec")],
+                              Discriminator(lambda v: "name" if isinstance(v, str) else "spec")]]
+
+
+def column_options(*maps: Columns) -> tuple[dict[str, str], dict[str, str]]:
+    """(log column → seatune name, log column → declared unit) of column maps, later maps winning."""
+    names, units = {}, {}
+    for m in maps:
+        for column, spec in m.items():
+            if isinstance(spec, str):
+                names[column] = spec
+            else:
+                if spec.name is not None:
+                    names[column] = spec.name
+                if spec.unit is not None:
+                    units[column] = spec.unit
+    return names, units
+
+
 class LogSpec(Strict):
     path: str  # file, directory (ROS2 bag) or glob
     format: LogFormat = "auto"
     kind: Literal["auto", "imu", "gnss", "heave", "motions"] = "auto"  # what a CSV / Parquet log carries
     time_column: str = "time"
-    columns: dict[str, str] = {}  # log column → seatune name (e.g. {Lat: latitude})
+    # log column → seatune name (e.g. {Lat: latitude}), or {name, unit} (e.g. {gyro_x: {name: roll_rate, unit: deg/s}})
+    columns: Columns = {}
 
 
 class TopicsSpec(Strict):
@@ -52,10 +89,22 @@ class HindcastSource(Strict):
     uncertainty: HindcastUncertainty = HindcastUncertainty()
 
 
+class PlausibilitySettings(Strict):
+    """Ingest's plausibility gate (seatune.physics.plausibility): samples beyond these are masked and counted."""
+
+    max_specific_force_g: PositiveFloat = 5.0  # per accelerometer axis
+    max_angle_deg: Annotated[float, Field(gt=0, le=180)] = 90.0  # |roll|, |pitch|
+    max_rate_rad_s: PositiveFloat = 5.0  # per gyro axis
+    max_speed_m_s: PositiveFloat = 50.0  # GNSS / odometry velocity components
+    max_stamp_offset_s: PositiveFloat = 3600.0  # header stamp vs receive time, beyond the topic's median offset
+
+
 class IngestSettings(Strict):
     rate_hz: PositiveFloat = 10.0
     max_gap_s: PositiveFloat = 2.0  # longer gaps split the record instead of being interpolated
     frame: Literal["FLU", "NED", "auto"] = "FLU"  # REP-103 FLU/ENU, FRD/NED, or auto (NED if frame_id ends _ned)
+    columns: Columns = {}  # like logs[].columns, for every CSV / Parquet log (a log's own entries win)
+    plausibility: PlausibilitySettings = PlausibilitySettings()
 
 
 class FilterSettings(Strict):
@@ -92,6 +141,7 @@ class IdentifySettings(Strict):
     heading_sector_deg: Annotated[float, Field(gt=0, le=180)] = 30.0  # aggregation sectors of the wave direction β
     hs_bin_m: PositiveFloat = 1.0  # aggregation Hs bins
     low_frequency_share: Annotated[float, Field(gt=0, lt=1)] = 0.25  # missing-swell flag threshold
+    debias_modes: bool = True  # scale each ω_n fit by the same fit's bias on the prior model's own spectrum
     known: dict[str, float] = {}  # loading values known on board (loading computer), used for derived parameters
 
     @field_validator("known")
@@ -214,6 +264,13 @@ class DiagnoseSettings(Strict):
     moonpool_position: tuple[float, float] = (0.0, 0.0)  # [x, y] m of a suspected moonpool, body frame
 
 
+class OutputSettings(Strict):
+    """Extra artefacts for other tools."""
+
+    # Hz: window_spectra_hz.parquet beside window_spectra.parquet (the stages read the rad/s one)
+    spectrum_frequency: Literal["rad/s", "Hz"] = "rad/s"
+
+
 class RunSpec(Strict):
     name: str
     run_dir: str
@@ -230,6 +287,7 @@ class RunSpec(Strict):
     tuning: TuningSettings = TuningSettings()
     predict: PredictSettings | None = None
     diagnose: DiagnoseSettings = DiagnoseSettings()
+    output: OutputSettings = OutputSettings()
 
 
 class Run:

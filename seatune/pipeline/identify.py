@@ -18,12 +18,18 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-RAO_UNITS = {"scope": "", "window_id": "", "channel": "", "omega": "rad/s", "rao_amp": "channel unit/m",
-             "ci_low": "channel unit/m", "ci_high": "channel unit/m", "model_prior": "channel unit/m",
+from seatune.errors import UserError
+
+RAO_PER_ROW = "per row; the row's channel unit per m of wave amplitude (vessel YAML `channels`)"
+RAO_UNITS = {"scope": "", "window_id": "", "channel": "", "omega": "rad/s", "rao_amp": RAO_PER_ROW,
+             "ci_low": RAO_PER_ROW, "ci_high": RAO_PER_ROW, "model_prior": RAO_PER_ROW,
              "low_confidence": "", "reason": "", "beta_deg": "deg", "sector_deg": "deg", "hs": "m",
              "hs_bin_m": "m", "n_windows": "", "wave_source": ""}
 NF_UNITS = {"dof": "", "method": "", "window_id": "", "omega_n": "rad/s", "ci_low": "rad/s", "ci_high": "rad/s",
-            "zeta": "", "model_prior": "rad/s", "derived": "", "derived_value": "", "derived_std": "", "reason": ""}
+            "zeta": "dimensionless", "model_prior": "rad/s", "derived": "",
+            "derived_value": "per row; the unit named in `derived`",
+            "derived_std": "per row; the unit named in `derived`",
+            "reason": "text", "estimator_bias": "dimensionless"}
 DOF_INDEX = {"Heave": 2, "Roll": 3, "Pitch": 4}
 
 
@@ -97,7 +103,11 @@ def power_in_sea(db, power: np.ndarray, omega: np.ndarray, dirs_from: np.ndarray
     """A database quantity |·|² (nw, nb, k) at `omega` and at the β of each source direction D: (n, nD, k)."""
     from seatune.physics.interp import interp_axis0
 
-    power = interp_axis0(db.omega, power, omega, complex_blend=False)
+    return at_sea_directions(db, interp_axis0(db.omega, power, omega, complex_blend=False), dirs_from, heading_deg)
+
+
+def at_sea_directions(db, power: np.ndarray, dirs_from: np.ndarray, heading_deg: float) -> np.ndarray:
+    """A quantity (n, nb, k) on the database's headings β, at the β of each source direction D: (n, nD, k)."""
     beta = np.mod(heading_deg - dirs_from - 180.0, 360.0)  # DESIGN §3
     grid = np.degrees(db.wave_direction)
     ext = np.r_[grid, 360.0]
@@ -127,6 +137,17 @@ def excitation_spectra(model, draft: float, omega, dirs_from, S2d, heading_deg) 
     db = model.db
     force = db.interp("excitation_force", np.atleast_1d(draft))[0][:, :, 2:5]  # (nw, nb, 3)
     p = power_in_sea(db, np.abs(force) ** 2, omega, dirs_from, heading_deg)
+    dd = np.radians(np.diff(np.r_[dirs_from, dirs_from[0] + 360.0]).mean())
+    return np.einsum("wdk,wd->kw", p, S2d) * dd
+
+
+def model_mode_spectra(model, loading, omega, dirs_from, S2d, heading_deg) -> np.ndarray:
+    """The model's displacement spectra of heave (body origin), roll and pitch in the window's sea: (3, n). The
+    equation of motion is solved at each ω (resonances between database frequencies resolved)."""
+    from seatune.physics.response import motion_raos_at
+
+    xi = motion_raos_at(model.db, loading, omega)[:, :, 2:5]
+    p = at_sea_directions(model.db, np.abs(xi) ** 2, dirs_from, heading_deg)
     dd = np.radians(np.diff(np.r_[dirs_from, dirs_from[0] + 360.0]).mean())
     return np.einsum("wdk,wd->kw", p, S2d) * dd
 
@@ -249,12 +270,17 @@ def mode_spectra(model, modes, spectra_w: pd.DataFrame, motions_w: pd.DataFrame 
     for mode in modes:
         ch = model.channel(mode.channel)
         if mode.dof == "Heave" and ch.kind == "specific_force" and motions_w is not None and ch.point is not None:
-            omega, S, nu = welch_spectrum(heave_at_origin(motions_w, ch.point), 1.0 / _dt(motions_w),
-                                          segment_s=segment_s)
+            acc = heave_at_origin(motions_w, ch.point)
+            if not np.isfinite(acc).any():  # masked in the whole window: no heave spectrum
+                continue
+            acc = pd.Series(np.where(np.isfinite(acc), acc, np.nan)).interpolate(limit_direction="both").to_numpy()
+            omega, S, nu = welch_spectrum(acc, 1.0 / _dt(motions_w), segment_s=segment_s)
             keep = omega > 0
             out[mode.dof] = (omega[keep], S[keep] / omega[keep] ** 4, nu)
             continue
         part = spectra_w[spectra_w["channel"] == mode.channel]
+        if part.empty:  # filter left the channel out in this window
+            continue
         omega = part["omega"].to_numpy()
         out[mode.dof] = (omega, part["S"].to_numpy() / omega ** (2 * mode.order), float(part["dof"].iloc[0]))
     return out
@@ -264,11 +290,17 @@ def _dt(motions: pd.DataFrame) -> float:
     return float(np.median(np.diff(motions["time"].to_numpy()).astype("timedelta64[ns]").astype(float)) * 1e-9)
 
 
-def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str, float], settings) -> list[dict]:
+def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str, float], settings,
+                           loading=None) -> list[dict]:
     """Per window whose wave energy reaches the resonance: the peak of the mechanical admittance
     √(S_xx/S_FF) in prior ω_n·(1 ± range) refined by an SDOF fit with its CI (de Jong §5.6.2 and ch. 6, with the
     model's excitation in place of the wave spectrum so that the excitation's own frequency dependence does not
-    move the peak); roll also from its response-spectrum peak. Combined over windows by inverse variance."""
+    move the peak); roll also from its response-spectrum peak. Combined over windows by inverse variance.
+
+    With `loading` (the prior), each window's fit is corrected for the estimator's own bias: the same fit on the
+    model's noise-free spectra in that window's sea lands at ω_fit,model instead of the model's coupled mode
+    ω_prior (coupled excitation — sway into roll, pitch into heave — and frequency-dependent A and B bend the
+    SDOF shape), so the measured fit is scaled by ω_prior/ω_fit,model (`estimator_bias` = the inverse)."""
     from seatune.physics.natural_frequency import spectrum_peak
     from seatune.physics.rao_estimation import chi2_interval, energetic_band
 
@@ -298,6 +330,9 @@ def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str,
                 amp, lo, hi = np.sqrt(S / s_ff), np.sqrt(lo_s / s_ff), np.sqrt(hi_s / s_ff)
             row = _fit_mode(omega[ok], amp[ok], lo[ok], hi[ok], s_wave[ok], prior, rng, w["tp_rel_std"]) \
                 if ok.sum() >= 5 else None
+            if row is not None and loading is not None:
+                row = _debiased(row, model, loading, w, omega[ok], amp[ok], lo[ok], hi[ok], s_ff[ok], s_wave[ok],
+                                dof_row[dof], prior, rng)
             if row is None:
                 skipped[reasons[3]] += 1
             else:
@@ -320,6 +355,20 @@ def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str,
                         "ci_low": np.nan, "ci_high": np.nan, "zeta": np.nan, "model_prior": prior,
                         "reason": f"not identified: {why}"})
     return out
+
+
+def _debiased(row: dict, model, loading, w: dict, omega, amp, lo, hi, s_ff, s_wave, k: int, prior: float,
+              rng: float) -> dict:
+    """`row` scaled by ω_prior / ω_fit,model, the same fit on the model's own spectrum (same points, same relative
+    intervals). Unchanged, with `estimator_bias` NaN, when the model's spectrum gives no fit."""
+    s_model = model_mode_spectra(model, loading, omega, w["dirs"], _wave_on(w, omega), w["heading"])[k]
+    amp_m = np.sqrt(s_model / s_ff)
+    fit_m = _fit_mode(omega, amp_m, amp_m * lo / amp, amp_m * hi / amp, s_wave, prior, rng, 0.0)
+    if fit_m is None:
+        return row | {"estimator_bias": np.nan}
+    bias = fit_m["omega_n"] / prior
+    return row | {"omega_n": row["omega_n"] / bias, "ci_low": row["ci_low"] / bias, "ci_high": row["ci_high"] / bias,
+                  "estimator_bias": bias}
 
 
 def _fit_mode(omega, amp, lo, hi, s_wave, prior: float, rng: float, tp_rel_std: float) -> dict | None:
@@ -440,10 +489,13 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
     draft = float(load_draft(model, prior))
     modes = mode_channels(model, set(spectra["channel"].unique()))
     parts, per_window = [], []
+    placed = np.flatnonzero(np.isfinite(motions["lat"].to_numpy(float)) & np.isfinite(motions["lon"].to_numpy(float)))
     for row in windows[windows["accepted"]].itertuples():
         mid = row.start + (row.end - row.start) / 2
-        k = int(np.clip(motions["time"].searchsorted(mid), 0, len(motions) - 1))
+        k = placed[int(np.clip(motions["time"].iloc[placed].searchsorted(mid), 0, len(placed) - 1))]  # a fix
         spec_w = spectra[spectra["window_id"] == row.window_id]
+        if spec_w.empty:  # filter left every channel of this window out (no finite sample)
+            continue
         omega = spec_w[spec_w["channel"] == spec_w["channel"].iloc[0]]["omega"].to_numpy()
         wave, dirs, source = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], omega, sea)
         unc = window_uncertainty(sea, row.window_id, uncertainty, row)
@@ -460,12 +512,16 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
                                                  run.spec.filter.welch_segment_s),
                            "sector": sector_of(beta, settings.heading_sector_deg),
                            "hs_bin": float(np.floor(unc.hs / settings.hs_bin_m) * settings.hs_bin_m)})
+    if windows["accepted"].any() and not per_window:
+        raise UserError(str(src[1]), None, "too little data: no spectrum of any accepted window (re-run "
+                                           "`seatune filter`)")
     raos = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(RAO_UNITS))
     if per_window:
         raos = pd.concat([raos, *aggregate_rows(per_window, raos, settings)], ignore_index=True)
     prior_nat = natural_frequencies(model.db, prior)[0]
     prior_omega = {dof: float(prior_nat[i]) for i, dof in enumerate(("Heave", "Roll", "Pitch"))}
-    rows = natural_frequency_rows(model, per_window, prior_omega, settings)
+    rows = natural_frequency_rows(model, per_window, prior_omega, settings,
+                                  prior if settings.debias_modes else None)
     known = model.loading(**settings.known) if settings.known else prior
     rows += derived_parameters(model, known, rows)
     nat = pd.DataFrame(rows, columns=list(NF_UNITS))

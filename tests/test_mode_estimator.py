@@ -1,0 +1,68 @@
+"""identify's natural-frequency estimator on noise-free response spectra made by the independent trial path
+(Capytaine's own `post_pro.rao` of the bank's hulls, wavespectra-built seas): no sampling error, no sea error, so
+what is left is the estimator's own bias. The truth is the generator's coupled root of det(C − ω²(M + A(ω)))."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from seatune.io.run_yaml import IdentifySettings
+from seatune.physics.modes import natural_frequencies
+from seatune.pipeline import identify as ident
+from seatune.pipeline.vessel import open_vessel
+from seatune.simulate import hydro, trial
+from seatune.simulate.seas import Partition, directional_spectrum
+from tests.conftest import ROOT
+
+DOFS = {"Heave": 2, "Roll": 3, "Pitch": 4}
+# a bank trial's true loading of each hull, with a sea that reaches all three modes
+CASES = {
+    "osv": ("sample_osv.yaml", dict(mass=9963390.76, xcg=-0.287671, ycg=0.0, zcg=5.9, r44=8.412426, r55=23.829645,
+                                    r66=25.0, gmt_fs=0.455214, beta44=0.069639),
+            [Partition("wind_sea", 2.0, 8.0, 60.0, 3.3, "cos2s", 25.0),
+             Partition("swell", 1.0, 11.0, 100.0, 2.0, "wrapped_normal", 12.0)]),
+    "barge": ("barge.yaml", dict(mass=3724601.92, xcg=-1.021459, ycg=0.0, zcg=6.736275, r44=6.0, r55=13.553702,
+                                 r66=15.6, gmt_fs=0.36075, beta44=0.061526),
+              [Partition("wind_sea", 2.0, 6.5, 60.0, 3.3, "cos2s", 25.0)]),
+}
+
+
+def _window(hull: str, model, heading: float = 30.0):
+    vessel, loading, sea = CASES[hull]
+    cond = hydro.condition(trial.hull_data(hull), hydro.Loading(**loading))
+    roots = hydro.coupled_natural_frequencies(cond)
+    omega = np.arange(1, 80) * 2 * np.pi / 256.0  # a 256 s Welch grid
+    omega = omega[(omega >= 0.25) & (omega <= 1.9)]
+    xi = hydro.capytaine_rao(cond.at_omega(omega))  # (n, nβ, 6)
+    dirs = np.mod(heading - np.degrees(cond.beta) - 180.0, 360.0)  # coming-from of each β (DESIGN §3)
+    order = np.argsort(dirs)
+    dirs, xi = dirs[order], xi[:, order, :]
+    wave = directional_spectrum(omega, dirs, sea)
+    dd = np.radians(360.0 / dirs.size)
+    modes = {d: (omega, (np.abs(xi[:, :, k]) ** 2 * wave).sum(axis=1) * dd, 400.0) for d, k in DOFS.items()}
+    window = {"window_id": "1", "modes": modes, "omega": omega, "s_wave": wave.sum(axis=1) * dd, "wave": wave,
+              "dirs": dirs, "heading": heading, "draft": float(ident.load_draft(model, model.base_loading)),
+              "tp_rel_std": 0.0, "low_confidence": False}
+    return window, roots
+
+
+@pytest.mark.parametrize("hull", ["osv", "barge"])
+def test_the_estimator_bias_is_removed(hull):
+    """Raw, the SDOF fit of √(S_xx/S_FF) puts heave 1.7 % (OSV) and 3.4 % (barge) above the coupled root
+    (frequency-dependent A33, B33 and the pitch coupling bend the admittance); scaled by the same fit's bias on the
+    prior model's spectrum, every mode is within 0.7 % of the generator's root, the prior being 0.4–9 % off."""
+    model = open_vessel(ROOT / "configs" / "vessels" / CASES[hull][0])
+    window, roots = _window(hull, model)
+    nat = natural_frequencies(model.db, model.base_loading)[0]
+    prior = {d: float(nat[i]) for i, d in enumerate(DOFS)}
+
+    def fitted(loading):
+        rows = ident.natural_frequency_rows(model, [window], prior, IdentifySettings(), loading)
+        return {r["dof"]: r for r in rows if r["window_id"] == "1" and r["method"] == "admittance_peak_sdof"}
+
+    raw, debiased = fitted(None), fitted(model.base_loading)
+    assert raw["Heave"]["omega_n"] / roots["heave"] - 1 > 0.012
+    for dof in DOFS:
+        assert debiased[dof]["omega_n"] == pytest.approx(roots[dof.lower()], rel=0.007), dof
+        assert debiased[dof]["estimator_bias"] == pytest.approx(raw[dof]["omega_n"] / debiased[dof]["omega_n"])
