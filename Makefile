@@ -40,12 +40,12 @@ golden: $(STAMP)
 	$(BIN)/seatune report configs/runs/sample.yaml --force ingest
 	$(BIN)/python -m seatune.report.golden runs/sample/summary.parquet tests/golden/sample_summary.json
 
-# Blind-validation trial bank (issue 15): seeded trials from the independent path (seatune/simulate/), bit-identical
+# Blind-validation trial bank (issue 15): seeded trials from the independent path (seatune/simulate/independent/), bit-identical
 # on regeneration. full: 62 trials, ~5 min on 2 cores, ~1.4 GB (not committed); TRIAL_BANK_SUBSET=ci: 6 short trials.
 TRIAL_BANK        ?= trial_bank
 TRIAL_BANK_SUBSET ?= full
 trial-bank: $(STAMP)
-	$(BIN)/python -m seatune.simulate.bank --out $(TRIAL_BANK) --subset $(TRIAL_BANK_SUBSET) --workers 2
+	$(BIN)/python -m seatune.simulate.independent.bank --out $(TRIAL_BANK) --subset $(TRIAL_BANK_SUBSET) --workers 2
 
 # seatune on every trial of the bank (seatune batch on Dask), scored against each truth.yaml → validation/
 # (bank_summary.parquet, bank_metrics.parquet with issue 15's targets, confusion.parquet, index.html).

@@ -38,7 +38,7 @@ def _reference_nll(r, mask, dof, tau, shape_var):
 
 
 def _reference_tank_spectra(model, parts, params):
-    from seatune.pipeline import simulate_effects as sim
+    from seatune.simulate import effects as sim
 
     nb = parts.beta.size
     dof = sim.anti_roll_tank_dof(parts.omega, nb, parts.inertia_roll, **params)

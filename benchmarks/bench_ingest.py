@@ -12,7 +12,7 @@ import pandas as pd
 
 def run() -> dict:
     from seatune.io.log_readers import benchmark_mcap
-    from seatune.io.log_writers import Stream, write_mcap
+    from seatune.simulate.log_writers import Stream, write_mcap
 
     n = 24 * 3600 * 10
     rng = np.random.default_rng(0)

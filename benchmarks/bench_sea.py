@@ -24,8 +24,8 @@ def _loop_cross_spectra(g, wave):
 
 
 def _window(model, heading, seed=3):
-    from seatune.physics.sea_estimation import partition_spectrum
-    from seatune.pipeline.sea import DIRS_FROM, raos_at
+    from seatune.identification.sea_estimation import DIRS_FROM, partition_spectrum
+    from seatune.pipeline.sea import raos_at
 
     rng = np.random.default_rng(seed)
     omega = np.linspace(0.25, 2.0, 700)
@@ -43,9 +43,9 @@ def _window(model, heading, seed=3):
 
 
 def run() -> dict:
-    import seatune.physics.sea_estimation as se
+    import seatune.identification.sea_estimation as se
+    from seatune.identification.sea_estimation import PartitionPrior
     from seatune.io.run_yaml import SeaSettings
-    from seatune.physics.sea_estimation import PartitionPrior
     from seatune.pipeline.sea import design_loadings, estimate_window
     from seatune.pipeline.vessel import open_vessel
     from seatune.tuning.interface import Parameter

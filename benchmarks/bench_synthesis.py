@@ -19,8 +19,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 _FULL_RUN = """
 import json, resource, time, yaml
-from seatune.io.scenario_yaml import ScenarioSpec, load_scenario
-from seatune.pipeline.simulate import simulate
+from seatune.simulate.scenario_yaml import ScenarioSpec, load_scenario
+from seatune.simulate.scenario import simulate
 from seatune.pipeline.vessel import open_vessel
 spec, vessel = load_scenario('{scenario}')
 data = spec.model_dump()
@@ -39,11 +39,11 @@ print(json.dumps(dict(seconds=time.perf_counter() - t, samples=len(trial.time), 
 
 
 def run() -> dict:
-    from seatune.io.scenario_yaml import load_scenario
     from seatune.physics.response import motion_raos_at
     from seatune.physics.synthesis import BlockPlan, amplitudes, direct_sum, draw_components, synthesize
-    from seatune.pipeline.simulate import component_densities, sea_state_partitions
     from seatune.pipeline.vessel import open_vessel
+    from seatune.simulate.scenario import component_densities, sea_state_partitions
+    from seatune.simulate.scenario_yaml import load_scenario
 
     scenario = ROOT / "configs/scenarios/sample_trial.yaml"
     spec, vessel = load_scenario(scenario)

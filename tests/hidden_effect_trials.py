@@ -19,7 +19,7 @@ from seatune.physics.channels import transfer_vectors
 from seatune.physics.interp import blend
 from seatune.physics.response import motion_raos_at
 from seatune.physics.spectra import jonswap
-from seatune.pipeline.simulate_effects import (
+from seatune.simulate.effects import (
     EFFECTS,
     augmented_raos,
     effect_params,

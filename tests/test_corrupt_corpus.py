@@ -63,7 +63,7 @@ def tables(seconds: int = SECONDS) -> dict[str, pd.DataFrame]:
 
 
 def streams(t: dict[str, pd.DataFrame]):
-    from seatune.io.log_writers import Stream
+    from seatune.simulate.log_writers import Stream
 
     return [Stream("/imu/data", "sensor_msgs/msg/Imu", "imu_link", t["imu"]),
             Stream("/gnss/fix", "sensor_msgs/msg/NavSatFix", "gnss", t["fix"]),
@@ -71,13 +71,13 @@ def streams(t: dict[str, pd.DataFrame]):
 
 
 def write_mcap(path: Path, t=None, **kw) -> Path:
-    from seatune.io.log_writers import write_mcap as w
+    from seatune.simulate.log_writers import write_mcap as w
 
     return w(path, streams(t or tables()), chunk_size=kw.pop("chunk_size", 32 * 1024), **kw)
 
 
 def write_clean(folder: Path) -> dict[str, Path]:
-    from seatune.io.log_writers import write_ros1_bag, write_ros2_bag
+    from seatune.simulate.log_writers import write_ros1_bag, write_ros2_bag
 
     folder.mkdir(parents=True, exist_ok=True)
     t = tables()
@@ -158,7 +158,7 @@ def every_chunk_flipped(clean, tmp):
 
 def truncated(kind: str, keep: float):
     def make(clean, tmp):
-        from seatune.io.log_writers import truncate
+        from seatune.simulate.log_writers import truncate
 
         dst = tmp / clean[kind].name
         truncate(clean[kind], keep, dest=dst) if clean[kind].is_file() else truncate(

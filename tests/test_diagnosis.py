@@ -18,7 +18,7 @@ from seatune.diagnosis.model import SpectralModel, WindowSet, long_crested_wave,
 from seatune.diagnosis.select import BIN_CORRELATION, COMMON_SHARE, INDEPENDENT_FLOOR, window_nll
 from seatune.physics.channels import Channel, transfer_vectors
 from seatune.physics.spectra import jonswap
-from seatune.pipeline import simulate_effects as sim
+from seatune.simulate import effects as sim
 from tests import diagnosis_trials as trials
 
 EFFECT = {e.name: e for e in library(moonpool_position=trials.MOONPOOL_AT)}

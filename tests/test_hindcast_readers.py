@@ -18,9 +18,9 @@ import xarray as xr
 from numpy.testing import assert_allclose
 
 from seatune.errors import UserError
-from seatune.io import hindcast_writers as hw
 from seatune.io.hindcast_readers import Hindcast, at_track, read_hindcast, spectrum_at
 from seatune.physics.spectra import SpectrumPartition as SP
+from seatune.simulate import hindcast_writers as hw
 
 wavespectra = pytest.importorskip("wavespectra")
 

@@ -1,4 +1,4 @@
-"""Synthetic hindcasts in real-product layouts (seatune.io.hindcast_writers).
+"""Synthetic hindcasts in real-product layouts (seatune.simulate.hindcast_writers).
 
 Reference numbers come from outside the writer: Hs = √(Σ Hs_i²) (each JONSWAP partition has m0 = Hs_i²/16
 by construction, tested in test_spectra.py), the Pierson–Moskowitz closed form T_{m−1,0} = Tp Γ(5/4)/1.25^¼,
@@ -16,8 +16,8 @@ import xarray as xr
 from numpy.testing import assert_allclose, assert_array_equal
 from scipy.interpolate import RegularGridInterpolator
 
-from seatune.io import hindcast_writers as hw
 from seatune.physics.spectra import SpectrumPartition as SP
+from seatune.simulate import hindcast_writers as hw
 
 wavespectra = pytest.importorskip("wavespectra")
 

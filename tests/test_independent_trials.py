@@ -14,31 +14,30 @@ import pandas as pd
 import pytest
 import xarray as xr
 
-from seatune.simulate import era5, hydro, trial
-from seatune.simulate.bank import definitions, make_spec
-from seatune.simulate.seas import Partition, frequency_spectrum, hs_of, spreading
-from seatune.simulate.synthesis import direct, synthesize
+from seatune.simulate.independent import era5, hydro, trial
+from seatune.simulate.independent.bank import definitions, make_spec
+from seatune.simulate.independent.seas import Partition, frequency_spectrum, hs_of, spreading
+from seatune.simulate.independent.synthesis import direct, synthesize
 
 REPO = Path(__file__).resolve().parents[1]
-FORBIDDEN = ("seatune.physics", "seatune.tuning", "seatune.diagnosis", "seatune.pipeline",
-             "seatune.io.hindcast_writers")
+FORBIDDEN = ("seatune.physics", "seatune.identification", "seatune.tuning", "seatune.diagnosis", "seatune.pipeline",
+             "seatune.simulate.hindcast_writers", "seatune.simulate.scenario", "seatune.simulate.effects")
 
 
 def test_separation_from_the_estimator():
     """Importing (and using) the whole path in a fresh interpreter loads none of the estimator's packages."""
     code = (
         "import sys\n"
-        "import seatune.simulate, seatune.simulate.bank, seatune.simulate.trial, seatune.simulate.hydro\n"
-        "import seatune.simulate.seas, seatune.simulate.era5, seatune.simulate.synthesis, seatune.simulate.hulls\n"
-        "from seatune.simulate import trial, hydro\n"
+        "from seatune.simulate.independent import bank, era5, hulls, hydro, seas, synthesis, trial\n"
+        "from seatune.simulate.independent import trial, hydro\n"
         "c = hydro.condition(trial.hull_data('osv'), hydro.Loading(9.9e6, -1, 0, 6.5, 8.4, 24, 25))\n"
         "hydro.capytaine_rao(c); hydro.coupled_natural_frequencies(c)\n"
-        "import seatune.io.log_writers\n"
+        "import seatune.simulate.log_writers\n"
         "print('\\n'.join(sorted(m for m in sys.modules if m.startswith('seatune'))))\n"
     )
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=REPO)
     loaded = res.stdout.split()
-    assert "seatune.simulate.trial" in loaded
+    assert "seatune.simulate.independent.trial" in loaded
     bad = [m for m in loaded if m.startswith(FORBIDDEN)]
     assert not bad, f"the independent path imports the estimator: {bad}"
 

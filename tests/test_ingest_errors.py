@@ -44,7 +44,7 @@ def imu_csv(path, n=600, bad=None):
 
 
 def bag_without_imu(path):
-    from seatune.io.log_writers import Stream, write_ros1_bag
+    from seatune.simulate.log_writers import Stream, write_ros1_bag
 
     t = pd.Timestamp("2026-03-14T07:00:00Z") + pd.to_timedelta(np.arange(100), unit="s")
     fix = pd.DataFrame({"time": t, "latitude": 61.2, "longitude": 3.4, "altitude": 0.0})

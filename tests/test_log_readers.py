@@ -1,4 +1,4 @@
-"""seatune.io.log_readers on genuine files: the simulator's writers (seatune.io.log_writers) and files written
+"""seatune.io.log_readers on genuine files: the simulator's writers (seatune.simulate.log_writers) and files written
 here directly with rosbags' and mcap's own writers.
 
 Expected tables are built from the input arrays (the independent source): stamps and log times to the ns,
@@ -18,8 +18,8 @@ from rosbags.typesys import Stores, get_typestore
 from seatune.errors import UserError
 from seatune.io import log_readers as lr
 from seatune.io.log_readers import LogContents, detect_format, read_log, read_table_log
-from seatune.io.log_writers import Stream, truncate, write_csv, write_mcap, write_ros1_bag, write_ros2_bag
 from seatune.pipeline.motions import imu_motions
+from seatune.simulate.log_writers import Stream, truncate, write_csv, write_mcap, write_ros1_bag, write_ros2_bag
 
 T0 = pd.Timestamp("2024-05-01T12:00:00Z")
 IMU, FIX, TWIST, VEC3, ODOM, POINT = ("sensor_msgs/msg/Imu", "sensor_msgs/msg/NavSatFix",

@@ -1,4 +1,4 @@
-"""seatune.io.log_writers: every file is read back with the format's own library, never through seatune.
+"""seatune.simulate.log_writers: every file is read back with the format's own library, never through seatune.
 
 Expected values come straight from the synthetic tables built here (the independent source): stamps and log
 times to the nanosecond, field values bit-exact, covariances laid out as sensor_msgs documents them
@@ -21,7 +21,7 @@ from mcap_ros2.decoder import DecoderFactory as Ros2DecoderFactory
 from rosbags.highlevel import AnyReader, AnyReaderError
 from rosbags.typesys import Stores, get_typestore
 
-from seatune.io.log_writers import Stream, truncate, write_csv, write_mcap, write_ros1_bag, write_ros2_bag
+from seatune.simulate.log_writers import Stream, truncate, write_csv, write_mcap, write_ros1_bag, write_ros2_bag
 
 T0 = pd.Timestamp("2024-05-01T12:00:00Z")
 IMU, NSF, V3S, TWS = ("sensor_msgs/msg/Imu", "sensor_msgs/msg/NavSatFix", "geometry_msgs/msg/Vector3Stamped",

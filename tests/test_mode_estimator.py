@@ -11,8 +11,8 @@ from seatune.io.run_yaml import IdentifySettings
 from seatune.physics.modes import natural_frequencies
 from seatune.pipeline import identify as ident
 from seatune.pipeline.vessel import open_vessel
-from seatune.simulate import hydro, trial
-from seatune.simulate.seas import Partition, directional_spectrum
+from seatune.simulate.independent import hydro, trial
+from seatune.simulate.independent.seas import Partition, directional_spectrum
 from tests.conftest import ROOT
 
 DOFS = {"Heave": 2, "Roll": 3, "Pitch": 4}

@@ -15,7 +15,6 @@ from scipy.spatial.transform import Rotation
 
 from seatune.errors import UserError
 from seatune.io.log_readers import TopicTable, read_log
-from seatune.io.log_writers import Stream, write_csv, write_mcap
 from seatune.pipeline.motions import (
     IMU_COLUMNS,
     build_motions,
@@ -25,6 +24,7 @@ from seatune.pipeline.motions import (
     resample,
     unit_findings,
 )
+from seatune.simulate.log_writers import Stream, write_csv, write_mcap
 
 T0 = pd.Timestamp("2026-03-14T06:00:00Z")
 IMU = "sensor_msgs/msg/Imu"

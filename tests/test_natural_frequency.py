@@ -1,4 +1,4 @@
-"""Tests for seatune.physics.natural_frequency.
+"""Tests for seatune.identification.natural_frequency.
 
 Expected numbers come from: the digest of de Jong's thesis (/work/shared/spec/seed_002.md, its [CHECK]
 recomputations), textbook SDOF results (peak frequencies), exact synthetic curves, χ² quantiles from
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy import optimize, stats
 
-from seatune.physics import natural_frequency as nf
+from seatune.identification import natural_frequency as nf
 
 T = 1e3  # tonne → kg; de Jong's "∇ [t]" is a mass (digest §1.4)
 A_WL = 1406.0  # m², digest §1.5 / Table 7.6

@@ -108,7 +108,7 @@ def test_rerun_skips_fresh_stages(run_dir):
 
 
 def test_truncated_mcap_is_read_up_to_the_cut(tmp_path, run_dir):
-    from seatune.io.log_writers import truncate
+    from seatune.simulate.log_writers import truncate
 
     _, path, _ = run_dir
     cut = tmp_path / "sample_trial.mcap"

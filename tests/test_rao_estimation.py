@@ -12,8 +12,7 @@ import pytest
 from scipy import signal as sps
 from scipy import stats
 
-from seatune.physics.adaptive_filter import welch_spectrum
-from seatune.physics.rao_estimation import (
+from seatune.identification.rao_estimation import (
     RaoEstimate,
     aggregate,
     chi2_interval,
@@ -24,6 +23,7 @@ from seatune.physics.rao_estimation import (
     rao_long_crested,
     rao_short_crested,
 )
+from seatune.physics.adaptive_filter import welch_spectrum
 
 FS = 2.0  # Hz
 DURATION = 3600.0  # s
@@ -335,7 +335,7 @@ def test_missing_swell_flag():
 def test_wave_log_std_matches_a_perturbed_jonswap():
     """σ of ln|H| from Hs/Tp errors equals ½|Δ ln S| of a JONSWAP actually recomputed with Tp·(1 + ε) and
     Hs·(1 + ε) (finite differences of the spectra module, not the slope formula)."""
-    from seatune.physics.rao_estimation import wave_log_std
+    from seatune.identification.rao_estimation import wave_log_std
     from seatune.physics.spectra import jonswap
 
     omega = np.linspace(0.3, 2.0, 4000)

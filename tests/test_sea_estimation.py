@@ -13,10 +13,10 @@ import pandas as pd
 import pytest
 from scipy import signal
 
-from seatune.physics.sea_estimation import Partition, cross_spectra, partition_spectrum, wave_systems
-from seatune.simulate import trial
-from seatune.simulate.bank import make_spec
-from seatune.simulate.seas import Partition as TruePartition
+from seatune.identification.sea_estimation import Partition, cross_spectra, partition_spectrum, wave_systems
+from seatune.simulate.independent import trial
+from seatune.simulate.independent.bank import make_spec
+from seatune.simulate.independent.seas import Partition as TruePartition
 
 
 def _angle(a, b):

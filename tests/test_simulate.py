@@ -10,10 +10,10 @@ import yaml
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
-from seatune.io.scenario_yaml import ScenarioSpec
 from seatune.physics.response import channel_spectra, trapezoid_weights
 from seatune.physics.spectra import SpectrumPartition, directional_spectrum
-from seatune.pipeline.simulate import simulate
+from seatune.simulate.scenario import simulate
+from seatune.simulate.scenario_yaml import ScenarioSpec
 from tests.conftest import ROOT
 
 SEA = {"wind_sea": {"hs": 2.0, "tp": 8.0, "dir_from_deg": 230.0, "spreading_param": 4.0},

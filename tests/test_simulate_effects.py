@@ -6,11 +6,9 @@ import numpy as np
 import pytest
 from scipy.signal import argrelextrema
 
-from seatune.io.scenario_yaml import EffectSpec, ScenarioSpec, load_scenario
 from seatune.physics import imu as imu_model
 from seatune.physics.response import motion_raos_at
-from seatune.pipeline.simulate import simulate
-from seatune.pipeline.simulate_effects import (
+from seatune.simulate.effects import (
     EFFECTS,
     EffectContext,
     RollConstants,
@@ -22,6 +20,8 @@ from seatune.pipeline.simulate_effects import (
     quadratic_roll_correction,
     roll_inertia,
 )
+from seatune.simulate.scenario import simulate
+from seatune.simulate.scenario_yaml import EffectSpec, ScenarioSpec, load_scenario
 from tests.conftest import ROOT
 from tests.hidden_effect_trials import simulate_windows, welch_dof
 

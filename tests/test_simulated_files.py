@@ -8,7 +8,7 @@ import pytest
 import xarray as xr
 import yaml
 
-from seatune.pipeline.simulate import simulate, write_trial
+from seatune.simulate.scenario import simulate, write_trial
 from tests.conftest import ROOT
 from tests.test_simulate import scenario
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from seatune.simulate.bank import build, definitions
+from seatune.simulate.independent.bank import build, definitions
 
 CONTRACT_TRUTH = {"trial", "seed", "hull", "vessel", "category", "effects", "loading", "natural_frequencies",
                   "hindcast", "windows"}

@@ -26,11 +26,11 @@ from scipy.spatial.transform import Rotation
 
 from seatune.errors import UserError
 from seatune.io.log_readers import read_log
-from seatune.io.log_writers import Stream, write_mcap
 from seatune.io.run_yaml import Run
 from seatune.io.vessel_yaml import load_vessel
 from seatune.pipeline import ingest as ingest_stage
 from seatune.pipeline.motions import build_motions, check_units, imu_motions, repair_time
+from seatune.simulate.log_writers import Stream, write_mcap
 from tests.conftest import ROOT
 
 CORPUS = ROOT / "tests" / "data" / "third_party"

@@ -70,8 +70,8 @@ def test_a_trial_row_and_the_bank_figures_by_hand():
 def test_make_validate_on_the_ci_bank(tmp_path):
     """The same code path as `make validate` on six short trials of both hulls (clean, effects, compound)."""
     bank, out = tmp_path / "bank", tmp_path / "validation"
-    gen = subprocess.run([sys.executable, "-m", "seatune.simulate.bank", "--out", str(bank), "--subset", "ci",
-                          "--workers", "2"], capture_output=True, text=True)
+    gen = subprocess.run([sys.executable, "-m", "seatune.simulate.independent.bank", "--out", str(bank),
+                          "--subset", "ci", "--workers", "2"], capture_output=True, text=True)
     assert gen.returncode == 0, gen.stderr[-2000:]
     res = subprocess.run([sys.executable, "-m", "seatune.validation", "--bank", str(bank), "--out", str(out),
                           "--workers", "2"], capture_output=True, text=True)

@@ -16,10 +16,10 @@ from seatune.cli.main import cli, handle_errors
 @handle_errors
 def simulate(scenario_yaml, out):
     """Synthesise a sea trial with known truth: logger files, a hindcast and truth.yaml."""
-    from seatune.io.scenario_yaml import load_scenario
-    from seatune.pipeline.simulate import simulate as run
-    from seatune.pipeline.simulate import write_trial
     from seatune.pipeline.vessel import open_vessel
+    from seatune.simulate.scenario import simulate as run
+    from seatune.simulate.scenario import write_trial
+    from seatune.simulate.scenario_yaml import load_scenario
 
     spec, vessel_path = load_scenario(scenario_yaml)
     model = open_vessel(vessel_path)

@@ -106,7 +106,7 @@ def save_capytaine_dataset(ds: xr.Dataset, path) -> None:
     """netCDF as `capytaine.io.xarray.save_dataset_as_netcdf` writes it (complex values along `complex`)."""
     from capytaine.io.xarray import separate_complex_values
 
-    from seatune.io.atomic import atomic_path
+    from seatune.atomic import atomic_path
 
     out = separate_complex_values(ds)
     with atomic_path(path) as tmp:

@@ -18,7 +18,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 import seatune
-from seatune.io.atomic import atomic_path
+from seatune.atomic import atomic_path
 
 TEXT = "text"
 TIMESTAMP = "UTC"

@@ -32,10 +32,13 @@ RAO_CONVENTIONS = {
 WAVERESPONSE_KWARGS = {"freq_hz": False, "degrees": True, "clockwise": False, "waves_coming_from": False,
                        "phase_degrees": False, "phase_leading": False}
 
+RAO_UNITS = {"Surge": "m/m", "Sway": "m/m", "Heave": "m/m", "Roll": "rad/m", "Pitch": "rad/m", "Yaw": "rad/m"}
+CHANNEL_UNITS = {"angle": "rad/m", "rate": "rad/s/m", "displacement": "m/m", "velocity": "m/s/m",
+                 "acceleration": "m/s^2/m", "specific_force": "m/s^2/m"}
+
 
 def rao_dataset(model, loading: Loading, include_channels: bool = True) -> xr.Dataset:
     """RAOs of the first loading condition: complex `rao` (response, omega, wave_direction)."""
-    from seatune.pipeline.vessel_report import CHANNEL_UNITS, RAO_UNITS
 
     db = model.db
     one = loading.take(slice(0, 1))
@@ -68,7 +71,7 @@ def save_rao_xarray(ds: xr.Dataset, path) -> None:
     """netCDF with complex values along a `complex` dim (re, im), as Capytaine stores them."""
     from capytaine.io.xarray import separate_complex_values
 
-    from seatune.io.atomic import atomic_path
+    from seatune.atomic import atomic_path
 
     with atomic_path(path) as tmp:
         separate_complex_values(ds).to_netcdf(tmp, engine="netcdf4")
@@ -87,7 +90,7 @@ def save_waveresponse(ds: xr.Dataset, path) -> None:
     Variables `freq` [rad/s], `dirs` [deg], `amp`, `phase` [rad, lag] (response, freq, dirs); the keywords in
     the attribute `waveresponse_from_amp_phase` (JSON). `waveresponse_raos` rebuilds the RAO objects.
     """
-    from seatune.io.atomic import atomic_path
+    from seatune.atomic import atomic_path
 
     rao = ds["rao"].values
     out = xr.Dataset(

@@ -140,7 +140,7 @@ def save_netcdf(db: HydroDatabase, path) -> None:
     """Write with Capytaine's convention for complex values (a `complex` dim with re/im)."""
     from capytaine.io.xarray import separate_complex_values
 
-    from seatune.io.atomic import atomic_path
+    from seatune.atomic import atomic_path
 
     ds = separate_complex_values(db.to_dataset())
     with atomic_path(path) as tmp:

@@ -28,8 +28,8 @@ import pandas as pd
 import yaml
 
 import seatune
+from seatune.atomic import atomic_path, remove_stale_temps
 from seatune.errors import UserError
-from seatune.io.atomic import atomic_path, remove_stale_temps
 from seatune.io.manifest_yaml import BatchRun, Manifest
 
 DONE_MARKER = "batch_done.json"
@@ -186,8 +186,8 @@ def run_one(name: str, run_yaml: str, log_path: str, one_thread: bool = True, un
     seconds, run_dir, run_yaml, log}; never raises for a failure of the run itself."""
     import dask
 
-    from seatune.cli import stages as st  # ORDER is read now: it is the list of every stage there is
     from seatune.io.run_yaml import Run
+    from seatune.pipeline import stages as st  # ORDER is read now: it is the list of every stage there is
 
     start = time.perf_counter()
     rec = {"name": name, "status": "failed", "error": None, "error_type": None, "seconds": math.nan,

@@ -155,7 +155,7 @@ def augmented_vessel_yaml(vessel, diag, effect, path: Path) -> None:
     """The run's vessel YAML with the named effect under `effects:` and the loading refitted with it as the
     loading condition; the priors stay the vessel's own, so `seatune tune` on it re-tunes from scratch with the
     effect in the model."""
-    from seatune.io.atomic import atomic_path
+    from seatune.atomic import atomic_path
     from seatune.pipeline.tune import vessel_yaml_data
 
     data = vessel_yaml_data(vessel)

@@ -171,7 +171,7 @@ def _reason(est) -> str:
 
 def identify_window(model, prior, row, wave, dirs, source, spectra: pd.DataFrame, settings, uncertainty):
     """Per-channel effective RAO estimates of one window: (RaoEstimate by channel, rows for raos.parquet)."""
-    from seatune.physics.rao_estimation import rao_long_crested, wave_log_std
+    from seatune.identification.rao_estimation import rao_long_crested, wave_log_std
 
     names = list(spectra["channel"].unique())
     omega = spectra[spectra["channel"] == names[0]]["omega"].to_numpy()
@@ -212,7 +212,7 @@ def sector_of(beta_deg: float, width: float) -> float:
 def aggregate_rows(per_window: list[dict], raos: pd.DataFrame, settings) -> list[pd.DataFrame]:
     """Windows combined per (β sector, Hs bin) and channel by inverse variance of ln|H| (003 thesis);
     low-confidence windows are left out."""
-    from seatune.physics.rao_estimation import aggregate
+    from seatune.identification.rao_estimation import aggregate
 
     out = []
     per_window = [w for w in per_window if not w["low_confidence"]]
@@ -301,8 +301,8 @@ def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str,
     model's noise-free spectra in that window's sea lands at ω_fit,model instead of the model's coupled mode
     ω_prior (coupled excitation — sway into roll, pitch into heave — and frequency-dependent A and B bend the
     SDOF shape), so the measured fit is scaled by ω_prior/ω_fit,model (`estimator_bias` = the inverse)."""
-    from seatune.physics.natural_frequency import spectrum_peak
-    from seatune.physics.rao_estimation import chi2_interval, energetic_band
+    from seatune.identification.natural_frequency import spectrum_peak
+    from seatune.identification.rao_estimation import chi2_interval, energetic_band
 
     out = []
     rng = settings.search_range
@@ -375,7 +375,7 @@ def _fit_mode(omega, amp, lo, hi, s_wave, prior: float, rng: float, tp_rel_std: 
     """SDOF fit of an admittance near its peak. The interval adds, in quadrature, how far ω_n moves when the
     hindcast's Tp is off by ±1σ: that tilts the spectrum by exp(±(1 + ∂ln S/∂ln ω) σ_Tp/Tp) (see
     rao_estimation.wave_log_std) and shifts the peak — an error the χ² interval cannot see."""
-    from seatune.physics.natural_frequency import fit_sdof, peak_in_range
+    from seatune.identification.natural_frequency import fit_sdof, peak_in_range
 
     def fit(factor):
         peak, k = peak_in_range(omega, amp * factor, prior, rng)
@@ -415,9 +415,9 @@ def derived_parameters(model, known_loading, nat: list[dict]) -> list[dict]:
     inverting the coupled model (`physics.modes.invert_mode`: the loading at which det(C − ω²(M + A(ω))) has
     its root at the measured ω_n), with the interval of ω_n propagated through it. "Known" = the run's
     `identify.known` values over the vessel YAML's loading."""
+    from seatune.identification.natural_frequency import displacement_from_heave_u
     from seatune.physics.loading import load
     from seatune.physics.modes import invert_mode
-    from seatune.physics.natural_frequency import displacement_from_heave_u
 
     db = model.db
     lh = load(db, known_loading)

@@ -21,6 +21,7 @@ from seatune.errors import UserError
 from seatune.pipeline.filter import STATS_UNITS
 from seatune.pipeline.identify import NF_UNITS, RAO_UNITS
 from seatune.pipeline.sea import read_sea_states
+from seatune.pipeline.windows import rejection_counts
 
 REQUIRED = ("motions.parquet", "waves.parquet", "windows.parquet", "window_stats.parquet", "raos.parquet",
             "natural_frequencies.parquet")
@@ -130,7 +131,7 @@ def _display_path(path: Path) -> str:
 def report_stage(run, vessel, echo=print, force: bool = False, not_run: dict[str, str] | None = None) -> dict:
     """`not_run`: {stage: why} of the stages that could not run this time (no accepted window, a stage's error):
     their artefacts, even left from an earlier run, stay off the page, which says why."""
-    from seatune.io.atomic import atomic_path
+    from seatune.atomic import atomic_path
     from seatune.io.parquet import column_units, table_metadata, write_table
     from seatune.io.rundir import fingerprint, is_fresh, recorded_fingerprint
     from seatune.physics.modes import coupled_modes
@@ -177,6 +178,7 @@ def report_stage(run, vessel, echo=print, force: bool = False, not_run: dict[str
         ingest_meta=table_metadata(run.artefact("motions.parquet")),
         motion_units=column_units(run.artefact("motions.parquet")), track=motions.iloc[::step].reset_index(drop=True),
         waves=pd.read_parquet(run.artefact("waves.parquet")), windows=windows,
+        rejections=rejection_counts(windows) if len(windows) else [],
         window_stats=stage_table("window_stats.parquet", STATS_UNITS), raos=raos,
         natural_frequencies=stage_table("natural_frequencies.parquet", NF_UNITS), history=history,
         validation=optional("validation.parquet"), prediction=optional("prediction.parquet"),

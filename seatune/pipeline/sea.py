@@ -1,5 +1,5 @@
 """`seatune sea`: each accepted window's directional sea estimated from the ship's motions, with the hindcast
-as the prior (physics/sea_estimation.py), → sea_states.parquet. identify, tune, diagnose and report then take
+as the prior (identification/sea_estimation.py), → sea_states.parquet. identify, tune, diagnose and report then take
 the window's wave spectrum and its uncertainty from the estimate instead of the hindcast.
 """
 
@@ -9,6 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+
+from seatune.identification.sea_estimation import DIRS_FROM
 
 SEA_UNITS = {
     "window_id": "",
@@ -36,7 +38,6 @@ SEA_UNITS = {
     "fitted_misfit": "dimensionless",
     "channels": "",
 }
-DIRS_FROM = np.arange(72) * 5.0  # the estimate's direction grid [deg, coming-from]
 _MEASURED_KINDS = ("angle", "specific_force", "acceleration", "displacement", "velocity")
 
 
@@ -86,8 +87,8 @@ def spectrum_partitions(S2d: np.ndarray, omega: np.ndarray, dirs_from: np.ndarra
 def hindcast_priors(hc, row, lat, lon, unc, settings):
     """The window's hindcast partitions as PartitionPriors (2-D spectrum: split at the trough; partitions
     wind_*/swell_*; else the bulk Hs/Tp/direction as one partition)."""
+    from seatune.identification.sea_estimation import PartitionPrior
     from seatune.io.hindcast_readers import at_track
-    from seatune.physics.sea_estimation import PartitionPrior
     from seatune.pipeline.identify import window_wave_spectrum
 
     def prior(hs, tp, d, spread=25.0):
@@ -153,7 +154,7 @@ def estimate_window(
     vessel, design, channels, x: np.ndarray, fs: float, priors, settings, heading_deg: float, segment_s: float
 ):
     """The SeaEstimate of one window from its motion channels x (nch, n)."""
-    from seatune.physics.sea_estimation import cross_spectra, estimate_sea
+    from seatune.identification.sea_estimation import cross_spectra, estimate_sea
 
     omega, phi, nu = cross_spectra(x, fs, segment_s)
     band = (omega >= max(settings.omega_min, vessel.db.omega[0])) & (
@@ -383,7 +384,7 @@ def read_sea_states(run) -> pd.DataFrame | None:
 
 def estimated_wave_spectrum(sea: pd.DataFrame, window_id: str, omega: np.ndarray):
     """S(ω, D) [m²·s/rad²] of the window's estimated partitions on `omega` × DIRS_FROM, or None."""
-    from seatune.physics.sea_estimation import partition_spectrum
+    from seatune.identification.sea_estimation import partition_spectrum
 
     part = sea[sea["window_id"] == str(window_id)]
     if part.empty:

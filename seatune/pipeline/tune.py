@@ -218,7 +218,7 @@ def tuned_vessel_yaml(vessel, post, path: Path) -> None:
         prior = data.setdefault("priors", {}).setdefault(name, {})
         prior["mean"], prior["std"] = float(post.mean[i]), float(post.std[i])
     data["description"] = (data.get("description", "") + " Tuned by seatune.").strip()
-    from seatune.io.atomic import atomic_path
+    from seatune.atomic import atomic_path
 
     with atomic_path(path) as tmp:
         tmp.write_text(yaml.safe_dump(data, sort_keys=False, allow_unicode=True))

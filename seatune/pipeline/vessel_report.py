@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from seatune.io.rao_export import CHANNEL_UNITS, RAO_UNITS
 from seatune.physics.hydro import DOFS
 from seatune.physics.loading import Loading, load
 from seatune.physics.modes import coupled_modes
@@ -12,9 +13,6 @@ from seatune.physics.response import channel_raos, motion_raos
 from seatune.pipeline.vessel import VesselModel
 
 UNITS_PER_ROW = "per row; the unit in the row's `units`"
-RAO_UNITS = {"Surge": "m/m", "Sway": "m/m", "Heave": "m/m", "Roll": "rad/m", "Pitch": "rad/m", "Yaw": "rad/m"}
-CHANNEL_UNITS = {"angle": "rad/m", "rate": "rad/s/m", "displacement": "m/m", "velocity": "m/s/m",
-                 "acceleration": "m/s^2/m", "specific_force": "m/s^2/m"}
 
 
 def imo_roll_period(length: float, beam: float, draft: float, gm: float) -> float:

@@ -18,19 +18,7 @@ import pandas as pd
 from scipy.stats import f as f_dist
 
 from seatune.errors import UserError
-from seatune.io.yaml_config import NonNegativeFloat, PositiveFloat, Strict
-
-
-class WindowSettings(Strict):
-    max_sog: PositiveFloat = 0.5  # m/s
-    sog_smoothing_s: PositiveFloat = 60.0
-    max_heading_change_deg: PositiveFloat = 10.0
-    min_duration_s: PositiveFloat = 1200.0  # Han: 20 min; de Jong: 17 min
-    max_duration_s: PositiveFloat = 3600.0
-    max_hs_change: NonNegativeFloat = 0.3  # fraction of the window's mean hindcast Hs
-    stationarity_channel: str = "roll"
-    sub_windows: int = 4
-    stationarity_alpha: PositiveFloat = 1e-3
+from seatune.io.run_yaml import WindowSettings
 
 
 @dataclass(frozen=True)

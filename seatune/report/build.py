@@ -10,7 +10,6 @@ import numpy as np
 import pandas as pd
 
 from seatune.diagnosis.select import HOLDOUT_MIN
-from seatune.pipeline.windows import rejection_counts, rejection_text
 from seatune.report import html as H
 from seatune.report import plots as P
 from seatune.report.inputs import ReportInputs
@@ -71,7 +70,8 @@ def alerts(inp: ReportInputs, row: dict) -> str:
     w = inp.windows
     if not len(w) or not w["accepted"].any():
         out += H.alert("No window accepted", f"0 of {len(w)} candidate windows accepted: "
-                       f"{rejection_text(w) if len(w) else 'no candidate'}. Nothing was filtered, identified or "
+                       f"{', '.join(f'{n} {kind}' for kind, n in inp.rejections) if len(w) else 'no candidate'}. "
+                       "Nothing was filtered, identified or "
                        "tuned; the Windows section shows the timeline and the reason of every candidate.")
     elif inp.not_run:
         out += H.alert("Stages not run", "; ".join(f"{s}: {why}" for s, why in inp.not_run.items())
@@ -174,7 +174,7 @@ def windows_section(inp: ReportInputs) -> str:
     units = {"start": "UTC", "end": "UTC", "duration": "min", "heading": "deg", "SOG": "m/s", "Hs": "m", "Tp": "s",
              "waves from": "deg"}
     day = "" if days > 1 else f" on {w['start'].iloc[0]:%Y-%m-%d}"
-    counts = rejection_counts(w)
+    counts = inp.rejections
     if counts:
         body += H.table(pd.DataFrame(counts, columns=["reason", "candidates"]), wide=("reason",),
                         caption=f"Rejected candidates by reason ({sum(n for _, n in counts)} of {len(w)})")

@@ -100,7 +100,7 @@ def main(argv: list[str]) -> int:
     lines = ",\n".join(f"    {json.dumps(k)}: {json.dumps(v, ensure_ascii=False)}"
                         for k, v in golden["figures"].items())
     text = f'{{\n  "about": {json.dumps(golden["about"], ensure_ascii=False)},\n  "figures": {{\n{lines}\n  }}\n}}\n'
-    from seatune.io.atomic import atomic_path
+    from seatune.atomic import atomic_path
 
     with atomic_path(argv[1]) as tmp:
         tmp.write_text(text)  # one line per figure: a regenerated file diffs figure by figure

@@ -52,6 +52,7 @@ class ReportInputs:
     # measured Welch spectrum of each DOF's main channel per window and the model's (prior, tuned) [unit²·s/rad]
     spectra: pd.DataFrame | None = None
     not_run: dict[str, str] = field(default_factory=dict)  # stages that could not run this time: why
+    rejections: list[tuple[str, int]] = field(default_factory=list)  # (reason kind, candidates), most first
 
     def channel_unit(self, channel: str) -> str:
         return self.motion_units.get(channel, "")

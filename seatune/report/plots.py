@@ -413,8 +413,7 @@ def residual_maps(rows: pd.DataFrame, channels: list[str], title_after: str) -> 
 def sea_polars(sea: pd.DataFrame, max_windows: int = 6) -> Figure:
     """Per window, the estimated directional spectrum S(f, D) (period rings, waves coming from, north up,
     clockwise), the estimated partitions (o, labelled Hs) and the hindcast's (x)."""
-    from seatune.physics.sea_estimation import partition_spectrum
-    from seatune.pipeline.sea import DIRS_FROM
+    from seatune.identification.sea_estimation import DIRS_FROM, partition_spectrum
 
     ids = list(dict.fromkeys(sea["window_id"]))[:max_windows]
     ncols = min(3, len(ids))

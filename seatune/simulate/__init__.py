@@ -1,12 +1,3 @@
-"""An independent trial path for blind validation (issue 15).
-
-Nothing in this package imports seatune's estimator (``seatune.physics``, ``tuning``, ``diagnosis``,
-``pipeline``): RAOs come straight from Capytaine (``capytaine.post_pro.rao``), seas from wavespectra's
-constructors, hidden effects from their own mechanisms, sensors from geometry, and the hindcast is written
-by this package's own ERA5 writer. Only ``seatune.io.log_writers`` (MCAP / CSV) and ``seatune.io.atomic``
-are shared, and they hold no modelling choices.
-
-Modules: ``hulls`` (the second hull's per-draft Capytaine datasets), ``hydro`` (truth RAOs, coupled roots,
-extra DOFs), ``seas`` (partitions and directional spectra), ``era5`` (degraded hindcast writer),
-``trial`` (one trial: synthesis, effects, sensors, files), ``bank`` (the bank definition and generator).
-"""
+"""Sea trials made up: seatune's own simulator (`scenario`, its `effects` and `scenario_yaml`, for
+`seatune simulate` and the sample), the log and hindcast writers, and in `independent` the independent trial path
+and the blind-validation bank, which shares only the log writers."""

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from seatune.io.atomic import atomic_path
+from seatune.atomic import atomic_path
 
 _STYLE = ("body{font:14px/1.45 system-ui,sans-serif;margin:1.5em auto;max-width:1200px;padding:0 1em;color:#212529}"
           "table{border-collapse:collapse;margin:.6em 0 1.4em;font-size:13px}td,th{border:1px solid #dee2e6;"
@@ -51,7 +51,8 @@ def write_page(path: Path, summary: pd.DataFrame, metrics: pd.DataFrame, confusi
     body = [
         "<h1>seatune on the blind trial bank</h1>",
         f"<p>{int(ok.sum())} of {len(summary)} trials scored ({hulls}). "
-        "Trials come from the independent path (<code>seatune.simulate</code>): Capytaine RAOs, wavespectra seas, "
+        "Trials come from the independent path (<code>seatune.simulate.independent</code>): Capytaine RAOs, "
+        "wavespectra seas, "
         "degraded ERA5 hindcasts; every figure below is measured against their truth. A missed target is shown, "
         "not hidden.</p>",
         "<h2>Figures against the targets</h2>", _table(metrics),

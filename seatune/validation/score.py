@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from seatune.physics.sea_estimation import direction_difference_deg
+from seatune.identification.sea_estimation import direction_difference_deg
 
 VESSEL_EFFECTS = ("quadratic_roll_damping", "moonpool", "anti_roll_tank", "imu_lever_arm", "imu_misalignment")
 SEA_EFFECTS = ("hs_bias", "missing_swell", "wave_spreading")

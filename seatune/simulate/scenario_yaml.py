@@ -178,7 +178,7 @@ def _check(spec: ScenarioSpec, source: str) -> None:
             raise UserError(source, f"segments.{i}", "a transit needs course_deg")
         if seg.kind != "transit" and seg.heading_deg is None:
             raise UserError(source, f"segments.{i}.heading_deg", f"a {seg.kind} segment needs heading_deg")
-    from seatune.pipeline.simulate_effects import EFFECTS
+    from seatune.simulate.effects import EFFECTS
 
     for i, eff in enumerate(spec.effects):
         if eff.kind not in EFFECTS:

@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 import seatune
-from seatune.io.atomic import atomic_path
+from seatune.atomic import atomic_path
 
 __all__ = [
     "MSGTYPES",

@@ -2,7 +2,7 @@
 
 Flow (:func:`generate`): the truth loading's Capytaine RAOs on a fine ω grid (0.0025 rad/s) → per segment
 (drift window or transit) a random-phase sea of 24 body-relative directions × randomised frequencies →
-6-DOF motions, velocities, accelerations by :mod:`seatune.simulate.synthesis` → segments blended over the
+6-DOF motions, velocities, accelerations by :mod:`seatune.simulate.independent.synthesis` → segments blended over the
 manoeuvre between them → quadratic roll damping integrated in the time domain (RK4) → IMU by geometry
 (scipy Rotation, exact rigid-body kinematics at the true IMU point) and GNSS → MCAP (``/imu/data``,
 ``sensor_msgs/msg/Imu``, REP-103 FLU/ENU) + GNSS CSV, ERA5 hindcast, ``truth.yaml``, ``run.yaml``.
@@ -33,9 +33,16 @@ import pandas as pd
 import yaml
 from scipy.spatial.transform import Rotation
 
-from seatune.simulate import era5, hydro
-from seatune.simulate.seas import Partition, frequency_spectrum, hs_of, mean_direction, peak_period, spreading
-from seatune.simulate.synthesis import synthesize
+from seatune.simulate.independent import era5, hydro
+from seatune.simulate.independent.seas import (
+    Partition,
+    frequency_spectrum,
+    hs_of,
+    mean_direction,
+    peak_period,
+    spreading,
+)
+from seatune.simulate.independent.synthesis import synthesize
 
 logging.getLogger("capytaine").setLevel(logging.WARNING)
 
@@ -43,7 +50,7 @@ FS = 10.0
 W_FINE = np.linspace(0.2, 2.0, 721)
 TRANSITION_S = 180.0
 R_EARTH = 6_371_000.0
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 VESSELS = {"osv": REPO / "configs" / "vessels" / "sample_osv.yaml",
            "barge": REPO / "configs" / "vessels" / "barge.yaml"}
 
@@ -59,7 +66,7 @@ def hull_data(hull: str) -> hydro.HullData:
         if hull == "osv":
             _HULL_CACHE[hull] = hydro.load_osv(REPO / "configs" / "vessels" / "sample_osv_hydro.nc")
         else:
-            from seatune.simulate.hulls import DRAFTS, file_name
+            from seatune.simulate.independent.hulls import DRAFTS, file_name
 
             _HULL_CACHE[hull] = hydro.load_barge([REPO / "configs" / "vessels" / "barge" / file_name(d)
                                                   for d in DRAFTS])
@@ -385,7 +392,7 @@ def _r(x, nd=6):
 
 def generate(spec: TrialSpec, out_dir: Path, n_freq: int = 80) -> dict:
     """Write one trial into out_dir/<trial>/ and return its truth dict."""
-    from seatune.io.log_writers import Stream, write_csv, write_mcap
+    from seatune.simulate.log_writers import Stream, write_csv, write_mcap
 
     rng = np.random.default_rng(spec.seed)
     tdir = Path(out_dir) / spec.trial

@@ -11,16 +11,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from seatune.io.hindcast_writers import hindcast_table_from_partitions
-from seatune.io.scenario_yaml import PartitionSpec, ScenarioSpec
 from seatune.physics import imu as imu_model
 from seatune.physics.channels import AXES, Channel, point_translation
 from seatune.physics.response import motion_raos_at
 from seatune.physics.spectra import SpectrumPartition, discrete_spreading
 from seatune.physics.synthesis import BlockPlan, amplitudes, draw_components, synthesize
 from seatune.physics.voyage import Kinematics, Segment, kinematics
-from seatune.pipeline.simulate_effects import EFFECTS, EffectContext, effect_transfer
 from seatune.pipeline.vessel import VesselModel
+from seatune.simulate.effects import EFFECTS, EffectContext, effect_transfer
+from seatune.simulate.hindcast_writers import hindcast_table_from_partitions
+from seatune.simulate.scenario_yaml import PartitionSpec, ScenarioSpec
 
 ORDER = {"angle": 0, "rate": 1, "displacement": 0, "velocity": 1, "acceleration": 2, "specific_force": 2}
 
@@ -344,7 +344,7 @@ def stream_group(topic: str) -> str:
 
 
 def ros_streams(spec: ScenarioSpec, trial: SimulatedTrial, groups: list[str]) -> list:
-    from seatune.io.log_writers import Stream
+    from seatune.simulate.log_writers import Stream
 
     out = []
     for topic, table in trial.streams.items():
@@ -362,8 +362,8 @@ def write_trial(spec: ScenarioSpec, trial: SimulatedTrial, out: Path, scenario_p
     """Write the logs, the hindcast and truth.yaml into `out` (every file atomically)."""
     import yaml
 
-    from seatune.io import log_writers as lw
-    from seatune.io.atomic import atomic_path
+    from seatune.atomic import atomic_path
+    from seatune.simulate import log_writers as lw
 
     out.mkdir(parents=True, exist_ok=True)
     name = spec.name
@@ -393,7 +393,7 @@ def write_trial(spec: ScenarioSpec, trial: SimulatedTrial, out: Path, scenario_p
 
 
 def _write_csvs(trial: SimulatedTrial, out: Path, name: str, groups: list[str]) -> list[Path]:
-    from seatune.io.log_writers import write_csv
+    from seatune.simulate.log_writers import write_csv
 
     paths = []
     if "imu" in groups:
@@ -413,7 +413,7 @@ def _write_csvs(trial: SimulatedTrial, out: Path, name: str, groups: list[str]) 
 
 
 def _write_hindcast(spec: ScenarioSpec, trial: SimulatedTrial, out: Path, name: str) -> list[Path]:
-    from seatune.io import hindcast_writers as hw
+    from seatune.simulate import hindcast_writers as hw
 
     paths = []
     times = trial.hindcast["time"]

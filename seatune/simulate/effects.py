@@ -288,7 +288,7 @@ class QuadraticRollDamping(Effect):
     defaults = {"q": 1.5}
 
     def before_sensors(self, ctx: EffectContext, spec) -> None:
-        from seatune.pipeline.simulate import _linear_channel
+        from seatune.simulate.scenario import _linear_channel
 
         p = effect_params(self, spec)
         db = ctx.model.db

@@ -36,6 +36,7 @@ from scipy import optimize, signal
 
 TWO_PI = 2.0 * np.pi
 FIELDS = ("hs", "tp", "dir_from_deg", "spread_deg", "gamma")
+DIRS_FROM = np.arange(72) * 5.0  # the estimate's direction grid [deg, coming-from]
 _OMEGA_NORM = np.geomspace(0.05, 8.0, 240)  # where each partition's shape is normalised to m0 = Hs²/16
 
 

@@ -1,6 +1,6 @@
 """The trial bank of issue 15: definitions (seeded) and generation.
 
-``python -m seatune.simulate.bank --out trial_bank [--subset ci|full] [--workers 2] [--only NAME ...]``
+``python -m seatune.simulate.independent.bank --out trial_bank [--subset ci|full] [--workers 2] [--only NAME ...]``
 
 Every trial is drawn from its own seed (``BANK_SEED`` + its index), so the bank regenerates bit-identically
 and any one trial can be regenerated alone. ``full``: 62 trials — 24 clean (8 of them with a second swell the
@@ -23,8 +23,8 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from seatune.simulate.hydro import Loading
-from seatune.simulate.seas import Partition
+from seatune.simulate.independent.hydro import Loading
+from seatune.simulate.independent.seas import Partition
 
 BANK_SEED = 150_000
 EFFECTS = ("quadratic_roll_damping", "moonpool", "anti_roll_tank", "imu_lever_arm", "imu_misalignment")
@@ -32,7 +32,7 @@ HULL_LENGTH = {"osv": 96.0, "barge": 60.0}
 
 
 def _vessel(hull: str) -> dict:
-    from seatune.simulate.trial import vessel_yaml
+    from seatune.simulate.independent.trial import vessel_yaml
 
     return vessel_yaml(hull)
 
@@ -49,8 +49,8 @@ def draw_loading(hull: str, rng: np.random.Generator) -> Loading:
 
 
 def truth_roll_root(hull: str, loading: Loading) -> float:
-    from seatune.simulate import hydro
-    from seatune.simulate.trial import hull_data
+    from seatune.simulate.independent import hydro
+    from seatune.simulate.independent.trial import hull_data
 
     return hydro.coupled_natural_frequencies(hydro.condition(hull_data(hull), loading))["roll"]
 
@@ -129,7 +129,7 @@ def draw_hindcast(rng: np.random.Generator, missing_swell: bool, layout: str | N
 def make_spec(trial: str, index: int, hull: str, category: str, effects: list[str], n_windows: int,
               short: bool = False, second_swell: bool = False, missing_swell: bool = False, layout: str | None = None,
               extra_params: bool = False, origin_mistake: bool = False):
-    from seatune.simulate.trial import TrialSpec
+    from seatune.simulate.independent.trial import TrialSpec
 
     seed = BANK_SEED + index
     rng = np.random.default_rng(seed)
@@ -197,7 +197,7 @@ def definitions(subset: str = "full") -> list[dict]:
 
 def _one(args) -> tuple[str, float, str]:
     row, out = args
-    from seatune.simulate.trial import generate
+    from seatune.simulate.independent.trial import generate
 
     t0 = time.perf_counter()
     spec = make_spec(**row)

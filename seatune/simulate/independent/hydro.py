@@ -6,7 +6,7 @@ about that origin (DESIGN §3). Complex amplitudes x(t) = Re{X e^{−iωt}} (Cap
 
 - OSV: seatune's committed database (``buoyancy_stiffness`` per draft about the waterline origin, complex
   values along a ``complex`` dim) read with xarray, interpolated linearly in draft.
-- Barge: the per-draft Capytaine datasets of :mod:`seatune.simulate.hulls`, each moved from its rotation
+- Barge: the per-draft Capytaine datasets of :mod:`seatune.simulate.independent.hulls`, each moved from its rotation
   centre to the waterline origin by the rigid-body transform (A_o = Tᵀ A_c T, F_o = Tᵀ F_c,
   ξ_c = T ξ_o, T = [[I, −[r]×], [0, I]], r = centre − origin); buoyancy stiffness from the exact box formula.
 - Weight terms (ours, as the brief): C44 += −m g z_G, C55 += −m g z_G, C46 += m g x_G, C56 += m g y_G,
@@ -102,7 +102,7 @@ def shift_matrix(r) -> np.ndarray:
 
 def load_barge(paths) -> HullData:
     """Per-draft Capytaine datasets (any rotation centre) → arrays about each draft's waterline origin."""
-    from seatune.simulate.hulls import BEAM, LENGTH, box_buoyancy_stiffness
+    from seatune.simulate.independent.hulls import BEAM, LENGTH, box_buoyancy_stiffness
 
     rows = []
     for p in paths:

@@ -19,8 +19,15 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from seatune.io.atomic import atomic_path
-from seatune.simulate.seas import Partition, directional_spectrum, hs_of, mean_direction, mean_period_m10, peak_period
+from seatune.atomic import atomic_path
+from seatune.simulate.independent.seas import (
+    Partition,
+    directional_spectrum,
+    hs_of,
+    mean_direction,
+    mean_period_m10,
+    peak_period,
+)
 
 ERA5_FREQ = 0.03453 * 1.1 ** np.arange(30)  # Hz
 ERA5_DIR_TO = 7.5 + 15.0 * np.arange(24)  # deg, going-to, clockwise from North
@@ -112,7 +119,7 @@ def write(path: Path, times: pd.DatetimeIndex, lat: np.ndarray, lon: np.ndarray,
             encoding[name] = {"_FillValue": np.float32(np.nan), "zlib": True, "complevel": 1}
         attrs = {"GRIB_centre": "ecmf", "Conventions": "CF-1.7",
                  "institution": "European Centre for Medium-Range Weather Forecasts",
-                 "history": "SYNTHETIC ERA5-layout hindcast (seatune.simulate.era5, trial bank)"}
+                 "history": "SYNTHETIC ERA5-layout hindcast (seatune.simulate.independent.era5, trial bank)"}
         fmt = "NETCDF4"
     else:
         hours = np.round((t - pd.Timestamp("1900-01-01")) / pd.Timedelta(hours=1)).astype(np.int32)

@@ -44,7 +44,7 @@ import xarray as xr
 from numpy.typing import ArrayLike
 from scipy import optimize, special
 
-from seatune.io.atomic import atomic_path
+from seatune.atomic import atomic_path
 from seatune.physics.spectra import (
     DEFAULT_SPREADING_PARAM,
     SpectrumPartition,
@@ -109,7 +109,7 @@ ERA5_VARIABLES: dict[str, _Era5Var] = {
     "d2fd": _Era5Var(140251, "2dfd", "2D wave spectra (single)", "m**2 s radian**-1"),
 }
 _HEIGHT_VARS = ("swh", "shww", "shts")
-_SYNTHETIC_NOTE = "SYNTHETIC data written by seatune.io.hindcast_writers (sea-trial simulator), ERA5 layout"
+_SYNTHETIC_NOTE = "SYNTHETIC data written by seatune.simulate.hindcast_writers (sea-trial simulator), ERA5 layout"
 
 
 # --------------------------------------------------------------------------------------------------

@@ -1,6 +1,6 @@
 """The second hull of the trial bank: a box barge, BEM with Capytaine, one dataset per draft.
 
-``python -m seatune.simulate.hulls [--out configs/vessels/barge]`` regenerates
+``python -m seatune.simulate.independent.hulls [--out configs/vessels/barge]`` regenerates
 ``barge_d2.6.nc``, ``barge_d3.0.nc``, ``barge_d3.4.nc`` (committed). Hull: L = 60 m, B = 20 m, depth 6 m,
 box with sharp bilges; drafts bracketing the design draft 3.0 m; ω 0.2–2.0 rad/s (40 values) plus ω = ∞
 (radiation only), 24 wave directions over [0, 2π), infinite depth, lid panels against irregular
@@ -121,7 +121,8 @@ def solve_draft(draft: float, omega=OMEGA, n_dir: int = N_DIR, resolution=RESOLU
     ds["draught"] = ds["draught"].astype(float)
     stamps = ("time", "date", "computation", "creation")  # no wall-clock times in committed files
     ds.attrs = {k: v for k, v in ds.attrs.items() if not any(w in k for w in stamps)}
-    ds.attrs.update(hull=f"box barge L={LENGTH:g} m B={BEAM:g} m D={DEPTH:g} m", generator="seatune.simulate.hulls",
+    ds.attrs.update(hull=f"box barge L={LENGTH:g} m B={BEAM:g} m D={DEPTH:g} m",
+                    generator="seatune.simulate.independent.hulls",
                     mesh=f"{mesh.nb_faces} hull panels" + (f" + {lid_mesh.nb_faces} lid panels" if lid else ""))
     return ds
 
