@@ -21,7 +21,7 @@ run: $(STAMP)
 	$(BIN)/seatune run configs/runs/sample.yaml
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile  # two processes, one test file each at a time
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow  # the 20-seed A2 validation and other long checks

@@ -690,7 +690,8 @@ def test_ww3_station_without_spectrum_is_left_out(tmp_path):
 
 
 def test_all_sea_stencils_are_unchanged(era5_files):
-    # float.hex of the pre-mask code (commit 395942e) on the existing fixture: bit for bit
+    # float.hex of the pre-mask code (commit 395942e) on the existing fixture: bit for bit, but for values decoded
+    # from the file's float32 spectra (their rounding varies with the xarray release)
     path, _ = era5_files[("new", "greenwich")]
     hc = read_hindcast(path)
     t = TIMES[:4] + pd.to_timedelta([0, 20, 37, 50], unit="min")
@@ -709,11 +710,15 @@ def test_all_sea_stencils_are_unchanged(era5_files):
                               "0x1.0d2ad12fa6138p+8"],
     }
     for name, hexes in before.items():
+        if name == "spreading":  # from the file's packed shorts: float32 rounding varies with the xarray release
+            assert_allclose(df[name], [float.fromhex(x) for x in hexes], rtol=1e-6)
+            continue
         assert [float(x).hex() for x in df[name]] == hexes, name
     assert df["sea_corners"].tolist() == df["stencil_corners"].tolist() == [4, 4, 4, 2]  # the last on a node row
     s = spectrum_at(hc, t[1], lat[1], lon[1]).values
-    assert [float(v).hex() for v in (s.sum(), (s**2).sum(), s.max())] == [
-        "0x1.27253c414dd94p+0", "0x1.ccd99d1b936bfp-6", "0x1.15b73ddd5ecd0p-4"]
+    assert_allclose([s.sum(), (s**2).sum(), s.max()],  # float32 from the file, as the spreading above
+                    [float.fromhex(x) for x in ("0x1.27253c414dd94p+0", "0x1.ccd99d1b936bfp-6",
+                                                "0x1.15b73ddd5ecd0p-4")], rtol=1e-6)
 
 
 def _ingest(tmp_path, hindcast):
