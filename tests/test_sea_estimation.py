@@ -139,3 +139,46 @@ def test_sea_and_vessel_alternate_and_settle(missing_swell_trial, tmp_path):
     hs_change = [float(r[1]) for r in rounds]
     moves = [float(r[2]) for r in rounds]
     assert hs_change[-1] < 5.0 and moves[-1] < 1.0
+
+
+def test_the_roll_free_sea_leaves_the_roll_channels_out(missing_swell_trial):
+    """sea.roll_free (default): the window's sea fitted again without roll, roll rate and the transverse specific
+    force, for identify's roll mode; the same windows, and the same sea within the fits' spread."""
+    from seatune.pipeline.sea import combined_hs
+
+    truth, sea, _ = missing_swell_trial
+    roll_free = pd.read_parquet(Path(truth["_folder"]) / "run" / "sea_states_roll_free.parquet")
+    assert set(roll_free["window_id"]) == set(sea["window_id"])
+    used = set(roll_free["channels"].iloc[0].split(","))
+    assert "roll" in sea["channels"].iloc[0].split(",") and not used & {"roll", "roll_rate", "imu_fy"}
+    assert {"pitch", "imu_fz"} <= used
+    hs_all, _ = combined_hs(sea)
+    hs_free, _ = combined_hs(roll_free)
+    true_hs = float(np.sqrt(sum(p["hs"] ** 2 for p in truth["windows"][0]["partitions"])))
+    assert abs(hs_free / true_hs - 1) < 0.15 and abs(hs_all / true_hs - 1) < 0.15
+
+
+def test_identify_reads_roll_against_its_own_sea():
+    """A window whose roll-free sea holds no energy near the roll mode: roll is not identified there (and says
+    why), while heave and pitch, read against the full sea, still are."""
+    import tests.test_mode_estimator as estimator
+    from seatune.io.run_yaml import IdentifySettings
+    from seatune.physics.modes import natural_frequencies
+    from seatune.pipeline import identify as ident
+    from seatune.pipeline.vessel import open_vessel
+    from tests.conftest import ROOT
+
+    model = open_vessel(ROOT / "configs" / "vessels" / "sample_osv.yaml")
+    window, _ = estimator._window("osv", model)
+    prior = dict(zip(("Heave", "Roll", "Pitch"), natural_frequencies(model.db, model.base_loading)[0].tolist(),
+                     strict=True))
+    short = window["wave"] * (window["omega"] > 1.5 * prior["Roll"])[:, None]  # nothing near the roll mode
+    window["own_sea"] = {"Roll": {"wave": short, "dirs": window["dirs"],
+                                  "s_wave": ident.omnidirectional(short, window["dirs"])}}
+    rows = ident.natural_frequency_rows(model, [window], prior, IdentifySettings(), model.base_loading)
+    combined = {r["dof"]: r for r in rows if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof"}
+    assert np.isfinite(combined["Heave"]["omega_n"]) and np.isfinite(combined["Pitch"]["omega_n"])
+    assert not np.isfinite(combined["Roll"]["omega_n"]) and "no wave energy" in combined["Roll"]["reason"]
+    del window["own_sea"]
+    rows = ident.natural_frequency_rows(model, [window], prior, IdentifySettings(), model.base_loading)
+    assert any(r["dof"] == "Roll" and np.isfinite(r["omega_n"]) for r in rows if r["window_id"] == "all")

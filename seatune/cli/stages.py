@@ -24,7 +24,7 @@ ingest = _command("ingest", "Logs + hindcast → motions.parquet, waves.parquet.
 windows = _command("windows", "Free-floating, stationary windows → windows.parquet.")
 filter_ = _command("filter", "Adaptive lowpass cutoff, σ, Tz and Welch spectra per window → window_stats.parquet.")
 sea = _command("sea", "The directional sea of each window estimated from the motions, the hindcast as its "
-                      "prior → sea_states.parquet.")
+                      "prior → sea_states.parquet (and sea_states_roll_free.parquet, fitted without roll).")
 identify = _command("identify", "RAOs and natural frequencies → raos.parquet, natural_frequencies.parquet.")
 tune = _command("tune", "Loading parameters tuned window by window (DBI or UKF) → tuning_history.parquet, "
                         "tuned_vessel.yaml, validation.parquet.")

@@ -1,6 +1,9 @@
 """`seatune sea`: each accepted window's directional sea estimated from the ship's motions, with the hindcast
 as the prior (identification/sea_estimation.py), → sea_states.parquet. identify, tune, diagnose and report then take
-the window's wave spectrum and its uncertainty from the estimate instead of the hindcast.
+the window's wave spectrum and its uncertainty from the estimate instead of the hindcast. With `sea.roll_free`, the
+sea is fitted once more without the roll channels → sea_states_roll_free.parquet, the sea identify reads the roll
+mode against: a sea fitted through the prior's roll RAO bends toward it at the roll resonance (where the waves'
+own tail is weakest) and pulls the measured roll ω_n toward the prior.
 """
 
 from __future__ import annotations
@@ -233,11 +236,15 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
             "parameters": list(run.spec.tuning.parameters),
         },
     )
+    out_roll = run.artefact("sea_states_roll_free.parquet")
+    outs = [out, out_roll] if settings.roll_free else [out]
+    if not settings.estimate or not settings.roll_free:
+        for path in ([out, out_roll] if not settings.estimate else [out_roll]):
+            if path.exists():
+                path.unlink()
     if not settings.estimate:
-        if out.exists():
-            out.unlink()
         return {"skipped": True, "disabled": True}
-    if not force and is_fresh([out], fp):
+    if not force and is_fresh(outs, fp):
         return {"skipped": True}
     motions, windows = pd.read_parquet(src[0]), pd.read_parquet(src[1])
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
@@ -250,7 +257,9 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
         raise UserError(str(run.path), "sea.channels", "no angle or vertical channel among the motions")
     design = design_loadings(vessel, parameters if parameters is not None else tuning_parameters(run, vessel))
     fs = run.spec.ingest.rate_hz
-    rows = []
+    keep = [k for k, c in enumerate(channels) if not _shows_roll(vessel.channel(c))]
+    roll_free = settings.roll_free and 2 <= len(keep) < len(channels)
+    rows, rows_roll = [], []
     for row in windows[windows["accepted"]].sort_values("start").itertuples():
         part = motions[
             (motions["time"] >= row.start) & (motions["time"] <= row.end) & (motions["record"] == row.record)
@@ -270,7 +279,14 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
             x = np.array([np.interp(idx, idx[np.isfinite(r)], r[np.isfinite(r)]) for r in x])
         est = estimate_window(vessel, design, channels, x, fs, priors, settings, row.heading_deg, settings.segment_s)
         rows += partition_rows(str(row.window_id), est, row.heading_deg, channels, priors)
+        if roll_free:
+            sub = [channels[k] for k in keep]
+            est = estimate_window(vessel, design, sub, x[keep], fs, priors, settings, row.heading_deg,
+                                  settings.segment_s)
+            rows_roll += partition_rows(str(row.window_id), est, row.heading_deg, sub, priors)
     table = pd.DataFrame(rows, columns=list(SEA_UNITS))
+    if settings.roll_free:  # empty when too few channels remain without roll: identify then takes the full fit
+        write_table(pd.DataFrame(rows_roll, columns=list(SEA_UNITS)), out_roll, SEA_UNITS, {"fingerprint": fp})
     write_table(table, out, SEA_UNITS, {"fingerprint": fp})
     systems = system_table(table)
     added = systems[~systems["in_hindcast"]] if len(systems) else systems
@@ -374,9 +390,16 @@ def _window_hs(sea: pd.DataFrame) -> pd.Series:
 # ------------------------------------------------------------------------- downstream
 
 
-def read_sea_states(run) -> pd.DataFrame | None:
-    """sea_states.parquet of the run, or None when the sea is not estimated (then the hindcast is used)."""
-    path = run.artefact("sea_states.parquet")
+def _shows_roll(channel) -> bool:
+    """A channel whose signal is mostly roll: a roll angle or rate, a transverse specific force (g·φ)."""
+    return (channel.kind in ("angle", "rate") and channel.axis == "x") or \
+        (channel.kind == "specific_force" and channel.axis == "y")
+
+
+def read_sea_states(run, roll_free: bool = False) -> pd.DataFrame | None:
+    """sea_states.parquet of the run (`roll_free`: sea_states_roll_free.parquet), or None when the sea is not
+    estimated (then the hindcast is used)."""
+    path = run.artefact("sea_states_roll_free.parquet" if roll_free else "sea_states.parquet")
     if not run.spec.sea.estimate or not path.exists():
         return None
     return pd.read_parquet(path)
@@ -415,7 +438,10 @@ class WindowSea:
 
 def sea_inputs(run) -> list:
     """sea_states.parquet as an input of a later stage's fingerprint when the sea is estimated."""
-    return [run.artefact("sea_states.parquet")] if run.spec.sea.estimate else []
+    if not run.spec.sea.estimate:
+        return []
+    return [run.artefact("sea_states.parquet")] + ([run.artefact("sea_states_roll_free.parquet")]
+                                                    if run.spec.sea.roll_free else [])
 
 
 def window_uncertainty(sea: pd.DataFrame | None, window_id, unc, hindcast_row=None) -> WindowSea:
