@@ -182,3 +182,44 @@ def test_identify_reads_roll_against_its_own_sea():
     del window["own_sea"]
     rows = ident.natural_frequency_rows(model, [window], prior, IdentifySettings(), model.base_loading)
     assert any(r["dof"] == "Roll" and np.isfinite(r["omega_n"]) for r in rows if r["window_id"] == "all")
+
+
+def test_the_choice_of_sea_widens_the_combined_interval():
+    """Two defensible seas of a window (here the true one and one with its energy tilted toward high
+    frequencies): the combined ω_n keeps the first sea's value, and its interval grows by 1.96 · |Δω| / √2 in
+    quadrature, Δω being the move to the other sea's fit made on its own (none where that sea identifies nothing)."""
+    import tests.test_mode_estimator as estimator
+    from seatune.io.run_yaml import IdentifySettings
+    from seatune.physics.modes import natural_frequencies
+    from seatune.pipeline import identify as ident
+    from seatune.pipeline.vessel import open_vessel
+    from tests.conftest import ROOT
+
+    model = open_vessel(ROOT / "configs" / "vessels" / "sample_osv.yaml")
+    window, _ = estimator._window("osv", model)
+    prior = dict(zip(("Heave", "Roll", "Pitch"), natural_frequencies(model.db, model.base_loading)[0].tolist(),
+                     strict=True))
+    tilted = window["wave"] * (window["omega"] / window["omega"].mean())[:, None] ** 2
+    seas = {"one": {k: window[k] for k in ("wave", "dirs", "s_wave")},
+            "other": {"wave": tilted, "dirs": window["dirs"], "s_wave": ident.omnidirectional(tilted, window["dirs"])}}
+    window["seas"] = seas
+
+    def combined(w):
+        rows = ident.natural_frequency_rows(model, [w], prior, IdentifySettings(), model.base_loading)
+        return rows, {r["dof"]: r for r in rows if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof"}
+
+    rows, first = combined(window)
+    _, second = combined(window | seas["other"])
+    widened = {r["dof"]: r for r in ident.with_sea_spread(rows, model, [window], prior, IdentifySettings(),
+                                                          model.base_loading)
+               if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof"}
+    moved = 0.0
+    for dof, r in widened.items():
+        delta = abs(second[dof]["omega_n"] - first[dof]["omega_n"])
+        delta = delta if np.isfinite(delta) else 0.0  # a sea in which the mode is not identified moves nothing
+        moved = max(moved, delta)
+        assert r["omega_n"] == first[dof]["omega_n"]
+        assert r["sea_std"] == pytest.approx(delta / np.sqrt(2), rel=1e-9, abs=1e-12)
+        half = np.hypot(0.5 * (first[dof]["ci_high"] - first[dof]["ci_low"]), 1.96 * delta / np.sqrt(2))
+        assert r["ci_high"] - r["ci_low"] == pytest.approx(2 * half, rel=1e-9)
+    assert moved > 1e-3  # the tilt does move a mode: the test is not vacuous

@@ -29,7 +29,7 @@ NF_UNITS = {"dof": "", "method": "", "window_id": "", "omega_n": "rad/s", "ci_lo
             "zeta": "dimensionless", "model_prior": "rad/s", "derived": "",
             "derived_value": "per row; the unit named in `derived`",
             "derived_std": "per row; the unit named in `derived`",
-            "reason": "text", "estimator_bias": "dimensionless"}
+            "reason": "text", "estimator_bias": "dimensionless", "sea_std": "rad/s"}
 DOF_INDEX = {"Heave": 2, "Roll": 3, "Pitch": 4}
 
 
@@ -361,6 +361,31 @@ def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str,
     return out
 
 
+def with_sea_spread(rows: list[dict], model, per_window: list[dict], prior_omega: dict[str, float], settings,
+                    loading) -> list[dict]:
+    """`rows` with each combined admittance ω_n's interval widened by how far it moves when every window takes
+    another of its defensible seas (the hindcast's, the estimate from all channels, the estimate without roll):
+    `sea_std` = max |Δω| / √2 (the spread of two equally likely draws), added in quadrature at 1.96σ. Which sea
+    is right the data cannot say, and the choice is shared by every window, so it does not average down."""
+    names = sorted({n for w in per_window for n in w.get("seas", {})})
+    if len(names) < 2:
+        return rows
+    moved: dict[str, list[float]] = {}
+    for name in names:
+        view = [w | w["seas"][name] | {"own_sea": {}} for w in per_window if name in w.get("seas", {})]
+        for r in natural_frequency_rows(model, view, prior_omega, settings, loading):
+            if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof" and np.isfinite(r["omega_n"]):
+                moved.setdefault(r["dof"], []).append(r["omega_n"])
+    out = []
+    for r in rows:
+        if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof" and np.isfinite(r["omega_n"]):
+            sea_std = max(abs(v - r["omega_n"]) for v in moved.get(r["dof"], [r["omega_n"]])) / np.sqrt(2.0)
+            half = np.hypot(0.5 * (r["ci_high"] - r["ci_low"]), 1.96 * sea_std)
+            r = r | {"ci_low": r["omega_n"] - half, "ci_high": r["omega_n"] + half, "sea_std": sea_std}
+        out.append(r)
+    return out
+
+
 def _debiased(row: dict, model, loading, w: dict, omega, amp, lo, hi, s_ff, s_wave, k: int, prior: float,
               rng: float) -> dict:
     """`row` scaled by ω_prior / ω_fit,model, the same fit on the model's own spectrum (same points, same relative
@@ -513,13 +538,19 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
                                                              unc)
         parts += rows
         s_wave = omnidirectional(wave, dirs)
+        seas = {source: {"wave": wave, "dirs": dirs, "s_wave": s_wave}}  # every defensible sea of the window
+        if source == "estimated from motions":
+            hw, hd, hs_name = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], omega)
+            seas[hs_name] = {"wave": hw, "dirs": hd, "s_wave": omnidirectional(hw, hd)}
         own = {}  # a mode's own sea: roll against the sea fitted without the roll channels
         found = estimated_wave_spectrum(sea_roll, str(row.window_id), omega) if sea_roll is not None else None
         if found is not None:
-            own["Roll"] = {"wave": found[0], "dirs": found[1], "s_wave": omnidirectional(found[0], found[1])}
+            own["Roll"] = seas["estimated without the roll channels"] = {
+                "wave": found[0], "dirs": found[1], "s_wave": omnidirectional(found[0], found[1])}
         in_window = (motions["time"] >= row.start) & (motions["time"] <= row.end) & (motions["record"] == row.record)
         per_window.append({"window_id": str(row.window_id), "estimates": estimates, "s_wave": s_wave, "omega": omega,
                            "wave": wave, "dirs": dirs, "heading": row.heading_deg, "draft": draft, "own_sea": own,
+                           "seas": seas,
                            "tp_rel_std": unc.tp_std_s / unc.tp,
                            "low_confidence": window_flag,
                            "modes": mode_spectra(model, modes, spec_w, motions[in_window],
@@ -536,6 +567,7 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
     prior_omega = {dof: float(prior_nat[i]) for i, dof in enumerate(("Heave", "Roll", "Pitch"))}
     rows = natural_frequency_rows(model, per_window, prior_omega, settings,
                                   prior if settings.debias_modes else None)
+    rows = with_sea_spread(rows, model, per_window, prior_omega, settings, prior if settings.debias_modes else None)
     known = model.loading(**settings.known) if settings.known else prior
     rows += derived_parameters(model, known, rows)
     nat = pd.DataFrame(rows, columns=list(NF_UNITS))
