@@ -387,7 +387,7 @@ def with_sea_spread(rows: list[dict], model, per_window: list[dict], prior_omega
 
 
 def _debiased(row: dict, model, loading, w: dict, omega, amp, lo, hi, s_ff, s_wave, k: int, prior: float,
-              rng: float) -> dict:
+              rng: float) -> dict | None:
     """`row` scaled by ω_prior / ω_fit,model, the same fit on the model's own spectrum (same points, same relative
     intervals). None when the model's noise-free spectrum gives no fit: then the measured one is noise or another
     system's peak (on the trial bank such roll fits were 20 % off in median, 1 in 8 inside their interval)."""
