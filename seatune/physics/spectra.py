@@ -77,6 +77,17 @@ def wave_direction_from_nautical(dir_from_deg: ArrayLike, heading_deg: ArrayLike
     return np.where(beta >= TWO_PI, 0.0, beta)
 
 
+def direction_step(dirs_deg: ArrayLike) -> float:
+    """ΔD [rad] of a uniform grid of directions in degrees covering the circle."""
+    dirs_deg = np.asarray(dirs_deg, dtype=float)
+    return float(np.radians(np.diff(np.r_[dirs_deg, dirs_deg[0] + 360.0]).mean()))
+
+
+def omnidirectional(wave: np.ndarray, dirs_deg: ArrayLike) -> np.ndarray:
+    """S(ω) = Σ_D S(ω, D) ΔD of a directional spectrum (n_ω, n_D) on a uniform direction grid."""
+    return np.asarray(wave).sum(axis=1) * direction_step(dirs_deg)
+
+
 def wrap_angle(theta: ArrayLike) -> np.ndarray:
     """Wrap angles [rad] to (−π, π] (elementwise, same shape)."""
     return np.pi - np.mod(np.pi - np.asarray(theta, dtype=float), TWO_PI)

@@ -21,6 +21,7 @@ import pandas as pd
 import yaml
 
 from seatune.errors import UserError
+from seatune.physics.spectra import direction_step
 
 DIAGNOSIS_UNITS = {
     "effect": "", "signature": "", "n_params": "", "fitted": "text; JSON, parameter units in fitted_units",
@@ -42,7 +43,7 @@ def body_wave(S2d: np.ndarray, dirs_from: np.ndarray, heading_deg: float, grid_r
     """S(ω, D) on coming-from directions → S(ω, β_b)·Δβ on the database's body-relative directions (DESIGN §3)."""
     from seatune.diagnosis.effects import _direction_weights
 
-    d_dir = np.radians(np.diff(np.r_[dirs_from, dirs_from[0] + 360.0]).mean())
+    d_dir = direction_step(dirs_from)
     beta = np.mod(heading_deg - np.asarray(dirs_from, dtype=float) - 180.0, 360.0)
     return (S2d * d_dir) @ _direction_weights(beta, np.degrees(grid_rad))
 

@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from seatune.errors import UserError
+from seatune.physics.spectra import direction_step, omnidirectional
 
 RAO_PER_ROW = "per row; the row's channel unit per m of wave amplitude (vessel YAML `channels`)"
 RAO_UNITS = {"scope": "", "window_id": "", "channel": "", "omega": "rad/s", "rao_amp": RAO_PER_ROW,
@@ -137,7 +138,7 @@ def excitation_spectra(model, draft: float, omega, dirs_from, S2d, heading_deg) 
     db = model.db
     force = db.interp("excitation_force", np.atleast_1d(draft))[0][:, :, 2:5]  # (nw, nb, 3)
     p = power_in_sea(db, np.abs(force) ** 2, omega, dirs_from, heading_deg)
-    dd = np.radians(np.diff(np.r_[dirs_from, dirs_from[0] + 360.0]).mean())
+    dd = direction_step(dirs_from)
     return np.einsum("wdk,wd->kw", p, S2d) * dd
 
 
@@ -148,7 +149,7 @@ def model_mode_spectra(model, loading, omega, dirs_from, S2d, heading_deg) -> np
 
     xi = motion_raos_at(model.db, loading, omega)[:, :, 2:5]
     p = at_sea_directions(model.db, np.abs(xi) ** 2, dirs_from, heading_deg)
-    dd = np.radians(np.diff(np.r_[dirs_from, dirs_from[0] + 360.0]).mean())
+    dd = direction_step(dirs_from)
     return np.einsum("wdk,wd->kw", p, S2d) * dd
 
 
@@ -175,7 +176,7 @@ def identify_window(model, prior, row, wave, dirs, source, spectra: pd.DataFrame
 
     names = list(spectra["channel"].unique())
     omega = spectra[spectra["channel"] == names[0]]["omega"].to_numpy()
-    s_wave = wave.sum(axis=1) * np.radians(np.diff(np.r_[dirs, dirs[0] + 360.0]).mean())
+    s_wave = omnidirectional(wave, dirs)
     h_model = effective_model_rao(model, prior, names, omega, dirs, wave, row.heading_deg)
     wls = wave_log_std(omega, np.maximum(s_wave, 1e-300), uncertainty.hs_rel_std, uncertainty.tp_std_s / uncertainty.tp)
     beta = mean_wave_direction(wave, dirs, row.heading_deg)
@@ -429,11 +430,6 @@ def _fit_mode(omega, amp, lo, hi, s_wave, prior: float, rng: float, tp_rel_std: 
     half = np.hypot(0.5 * (best.omega_n_ci[1] - best.omega_n_ci[0]), 1.96 * shift)
     return {"omega_n": best.omega_n, "ci_low": best.omega_n - half, "ci_high": best.omega_n + half,
             "zeta": best.zeta}
-
-
-def omnidirectional(wave: np.ndarray, dirs: np.ndarray) -> np.ndarray:
-    """S(ω) = Σ_D S(ω, D) ΔD of a directional spectrum on a uniform direction grid."""
-    return wave.sum(axis=1) * np.radians(np.diff(np.r_[dirs, dirs[0] + 360.0]).mean())
 
 
 def _wave_on(w: dict, omega: np.ndarray) -> np.ndarray:

@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from seatune.errors import UserError
+from seatune.physics.spectra import direction_step
 
 CHANNEL_PER_ROW = "per row; the unit of the row's channel"
 PREDICTION_UNITS = {"time": "", "model": "", "channel": "", "heading_deg": "deg",
@@ -134,7 +135,7 @@ def time_step(omega, grid_deg, headings, spectrum0, dirs_from, tp0: float, uncer
     `uncertainty` = (hs_rel_std, tp_std_s, dir_std_deg)), every heading, the risk and the optimal heading."""
     from seatune.physics.extremes import optimal_heading, rotation_operator
 
-    d_dir = np.radians(np.diff(np.r_[dirs_from, dirs_from[0] + 360.0]).mean())
+    d_dir = direction_step(dirs_from)
     hs_ratio, tp_ratio, offsets, sea_w = sea_state_hypotheses(uncertainty[0], uncertainty[1], tp0, uncertainty[2])
     waves = scaled_spectra(omega, spectrum0, hs_ratio, tp_ratio)
     rotation = rotation_operator(dirs_from, grid_deg, headings, offsets)

@@ -18,6 +18,7 @@ import pandas as pd
 
 import seatune
 from seatune.errors import UserError
+from seatune.physics.spectra import omnidirectional
 from seatune.pipeline.filter import STATS_UNITS
 from seatune.pipeline.identify import NF_UNITS, RAO_UNITS
 from seatune.pipeline.sea import read_sea_states
@@ -108,7 +109,7 @@ def model_spectra(run, vessel, loadings: dict, windows: pd.DataFrame, motions: p
         mid = row.start + (row.end - row.start) / 2
         k = int(np.clip(motions["time"].searchsorted(mid), 0, len(motions) - 1))
         wave, dirs, _ = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], omega, sea)
-        s_wave = wave.sum(axis=1) * np.radians(np.diff(np.r_[dirs, dirs[0] + 360.0]).mean())  # S_ζζ [m²·s/rad]
+        s_wave = omnidirectional(wave, dirs)  # S_ζζ [m²·s/rad]
         have = [c for c in channels if c in set(mine["channel"])]
         part = pd.DataFrame({"window_id": row.window_id, "channel": np.repeat(have, omega.size),
                              "omega": np.tile(omega, len(have))})

@@ -18,6 +18,7 @@ import pandas as pd
 import yaml
 
 from seatune.errors import UserError
+from seatune.physics.spectra import direction_step
 
 PARAMETER_PER_ROW = "per row; the unit of the row's parameter (vessel YAML loading)"
 HISTORY_UNITS = {"update": "", "window_id": "", "backend": "", "parameter": "", "mean": PARAMETER_PER_ROW,
@@ -158,7 +159,7 @@ def window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, name
         mid = row.start + (row.end - row.start) / 2
         k = int(np.clip(motions["time"].searchsorted(mid), 0, len(motions) - 1))
         wave, dirs, _ = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], db.omega, sea)
-        d_dir = np.radians(np.diff(np.r_[dirs, dirs[0] + 360.0]).mean())
+        d_dir = direction_step(dirs)
         hs0 = 4.0 * np.sqrt(np.trapezoid(wave.sum(axis=1) * d_dir, db.omega))
         ws = window_uncertainty(sea, row.window_id, unc, row)  # the estimated sea's, else the hindcast's
         theta0 = np.array([hs0, ws.tp, mean_wave_direction(wave, dirs, row.heading_deg)])

@@ -14,6 +14,7 @@ import numpy as np
 
 from seatune.physics.loading import Loading
 from seatune.physics.response import channel_raos, trapezoid_weights
+from seatune.physics.spectra import direction_step
 
 SEA_STATE_NAMES = ("hs", "tp", "beta_deg")
 
@@ -73,7 +74,7 @@ class WindowStatistics:
         self.beta_grid = np.degrees(db.wave_direction)
         self.spectrum0 = spectrum0  # (nw, nD) m²·s/rad² on db.omega
         self.dirs_from = np.asarray(dirs_from, dtype=float)
-        self.d_dir = np.radians(np.diff(np.r_[self.dirs_from, self.dirs_from[0] + 360.0]).mean())
+        self.d_dir = direction_step(self.dirs_from)
         self.heading = heading_deg
         self.theta0 = np.asarray(theta0, dtype=float)  # (hs0, tp0, beta0_deg)
         chan_index = {c: i for i, c in enumerate(power.channel_names)}
