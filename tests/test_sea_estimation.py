@@ -173,13 +173,14 @@ def test_identify_reads_roll_against_its_own_sea():
     prior = dict(zip(("Heave", "Roll", "Pitch"), natural_frequencies(model.db, model.base_loading)[0].tolist(),
                      strict=True))
     short = window["wave"] * (window["omega"] > 1.5 * prior["Roll"])[:, None]  # nothing near the roll mode
-    window["own_sea"] = {"Roll": {"wave": short, "dirs": window["dirs"],
-                                  "s_wave": ident.omnidirectional(short, window["dirs"])}}
+    window["seas"] = {"short": {"wave": short, "dirs": window["dirs"],
+                                "s_wave": ident.omnidirectional(short, window["dirs"])}}
+    window["sea_by_mode"] = {"Roll": "short"}
     rows = ident.natural_frequency_rows(model, [window], prior, IdentifySettings(), model.base_loading)
     combined = {r["dof"]: r for r in rows if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof"}
     assert np.isfinite(combined["Heave"]["omega_n"]) and np.isfinite(combined["Pitch"]["omega_n"])
     assert not np.isfinite(combined["Roll"]["omega_n"]) and "no wave energy" in combined["Roll"]["reason"]
-    del window["own_sea"]
+    del window["sea_by_mode"]
     rows = ident.natural_frequency_rows(model, [window], prior, IdentifySettings(), model.base_loading)
     assert any(r["dof"] == "Roll" and np.isfinite(r["omega_n"]) for r in rows if r["window_id"] == "all")
 
@@ -202,7 +203,7 @@ def test_the_choice_of_sea_widens_the_combined_interval():
     tilted = window["wave"] * (window["omega"] / window["omega"].mean())[:, None] ** 2
     seas = {"one": {k: window[k] for k in ("wave", "dirs", "s_wave")},
             "other": {"wave": tilted, "dirs": window["dirs"], "s_wave": ident.omnidirectional(tilted, window["dirs"])}}
-    window["seas"] = seas
+    window["seas"], window["sea_name"] = seas, "one"  # "one" is the sea the modes are read against
 
     def combined(w):
         rows = ident.natural_frequency_rows(model, [w], prior, IdentifySettings(), model.base_loading)

@@ -315,7 +315,8 @@ def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str,
                    "the model's own spectrum in this sea shows no resonance to fit": 0}
         reasons = list(skipped)
         for w in per_window:
-            w = w | w.get("own_sea", {}).get(dof, {})
+            if dof in w.get("sea_by_mode", {}):  # the mode's own sea (roll: fitted without the roll channels)
+                w = w | w["seas"][w["sea_by_mode"][dof]]
             if dof not in w["modes"] or w["low_confidence"]:
                 skipped[reasons[0 if dof not in w["modes"] else 1]] += 1
                 continue
@@ -373,8 +374,10 @@ def with_sea_spread(rows: list[dict], model, per_window: list[dict], prior_omega
         return rows
     moved: dict[str, list[float]] = {}
     for name in names:
-        view = [w | w["seas"][name] | {"own_sea": {}} for w in per_window if name in w.get("seas", {})]
-        for r in natural_frequency_rows(model, view, prior_omega, settings, loading):
+        view = [w | w["seas"][name] | {"sea_by_mode": {}} for w in per_window if name in w.get("seas", {})]
+        redo = {dof: omega for dof, omega in prior_omega.items()  # a mode already fitted in this sea moves nowhere
+                if len(view) < len(per_window) or any(_sea_name(w, dof) != name for w in per_window)}
+        for r in natural_frequency_rows(model, view, redo, settings, loading) if redo else []:
             if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof" and np.isfinite(r["omega_n"]):
                 moved.setdefault(r["dof"], []).append(r["omega_n"])
     out = []
@@ -385,6 +388,11 @@ def with_sea_spread(rows: list[dict], model, per_window: list[dict], prior_omega
             r = r | {"ci_low": r["omega_n"] - half, "ci_high": r["omega_n"] + half, "sea_std": sea_std}
         out.append(r)
     return out
+
+
+def _sea_name(w: dict, dof: str) -> str | None:
+    """The name of the sea a window's `dof` mode is read against."""
+    return w.get("sea_by_mode", {}).get(dof, w.get("sea_name"))
 
 
 def _debiased(row: dict, model, loading, w: dict, omega, amp, lo, hi, s_ff, s_wave, k: int, prior: float,
@@ -538,15 +546,15 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
         if source == "estimated from motions":
             hw, hd, hs_name = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], omega)
             seas[hs_name] = {"wave": hw, "dirs": hd, "s_wave": omnidirectional(hw, hd)}
-        own = {}  # a mode's own sea: roll against the sea fitted without the roll channels
+        by_mode = {}  # a mode's own sea: roll against the sea fitted without the roll channels
         found = estimated_wave_spectrum(sea_roll, str(row.window_id), omega) if sea_roll is not None else None
         if found is not None:
-            own["Roll"] = seas["estimated without the roll channels"] = {
-                "wave": found[0], "dirs": found[1], "s_wave": omnidirectional(found[0], found[1])}
+            by_mode["Roll"] = "estimated without the roll channels"
+            seas[by_mode["Roll"]] = {"wave": found[0], "dirs": found[1], "s_wave": omnidirectional(found[0], found[1])}
         in_window = (motions["time"] >= row.start) & (motions["time"] <= row.end) & (motions["record"] == row.record)
         per_window.append({"window_id": str(row.window_id), "estimates": estimates, "s_wave": s_wave, "omega": omega,
-                           "wave": wave, "dirs": dirs, "heading": row.heading_deg, "draft": draft, "own_sea": own,
-                           "seas": seas,
+                           "wave": wave, "dirs": dirs, "heading": row.heading_deg, "draft": draft, "seas": seas,
+                           "sea_name": source, "sea_by_mode": by_mode,
                            "tp_rel_std": unc.tp_std_s / unc.tp,
                            "low_confidence": window_flag,
                            "modes": mode_spectra(model, modes, spec_w, motions[in_window],
