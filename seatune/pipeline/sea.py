@@ -41,6 +41,7 @@ SEA_UNITS = {
     "fitted_misfit": "dimensionless",
     "channels": "",
 }
+ROLL_FREE_FILE = "sea_states_roll_free.parquet"  # the sea fitted without the roll channels (`sea.roll_free`)
 _MEASURED_KINDS = ("angle", "specific_force", "acceleration", "displacement", "velocity")
 
 
@@ -52,6 +53,12 @@ def sea_channels(model, available) -> list[str]:
         for c in model.channels
         if c.name in available and c.kind in _MEASURED_KINDS and (c.kind == "angle" or c.axis == "z")
     ]
+
+
+def _shows_roll(channel) -> bool:
+    """A channel whose signal is mostly roll: a roll angle or rate, a transverse specific force (g·φ)."""
+    return (channel.kind in ("angle", "rate") and channel.axis == "x") or \
+        (channel.kind == "specific_force" and channel.axis == "y")
 
 
 def spectrum_partitions(S2d: np.ndarray, omega: np.ndarray, dirs_from: np.ndarray, max_parts: int = 2):
@@ -236,12 +243,10 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
             "parameters": list(run.spec.tuning.parameters),
         },
     )
-    out_roll = run.artefact("sea_states_roll_free.parquet")
-    outs = [out, out_roll] if settings.roll_free else [out]
-    if not settings.estimate or not settings.roll_free:
-        for path in ([out, out_roll] if not settings.estimate else [out_roll]):
-            if path.exists():
-                path.unlink()
+    out_roll = run.artefact(ROLL_FREE_FILE)
+    outs = ([out, out_roll] if settings.roll_free else [out]) if settings.estimate else []
+    for path in {out, out_roll} - set(outs):  # left from a run with other settings
+        path.unlink(missing_ok=True)
     if not settings.estimate:
         return {"skipped": True, "disabled": True}
     if not force and is_fresh(outs, fp):
@@ -390,16 +395,10 @@ def _window_hs(sea: pd.DataFrame) -> pd.Series:
 # ------------------------------------------------------------------------- downstream
 
 
-def _shows_roll(channel) -> bool:
-    """A channel whose signal is mostly roll: a roll angle or rate, a transverse specific force (g·φ)."""
-    return (channel.kind in ("angle", "rate") and channel.axis == "x") or \
-        (channel.kind == "specific_force" and channel.axis == "y")
-
-
 def read_sea_states(run, roll_free: bool = False) -> pd.DataFrame | None:
     """sea_states.parquet of the run (`roll_free`: sea_states_roll_free.parquet), or None when the sea is not
     estimated (then the hindcast is used)."""
-    path = run.artefact("sea_states_roll_free.parquet" if roll_free else "sea_states.parquet")
+    path = run.artefact(ROLL_FREE_FILE if roll_free else "sea_states.parquet")
     if not run.spec.sea.estimate or not path.exists():
         return None
     return pd.read_parquet(path)
@@ -440,8 +439,7 @@ def sea_inputs(run) -> list:
     """sea_states.parquet as an input of a later stage's fingerprint when the sea is estimated."""
     if not run.spec.sea.estimate:
         return []
-    return [run.artefact("sea_states.parquet")] + ([run.artefact("sea_states_roll_free.parquet")]
-                                                    if run.spec.sea.roll_free else [])
+    return [run.artefact("sea_states.parquet")] + ([run.artefact(ROLL_FREE_FILE)] if run.spec.sea.roll_free else [])
 
 
 def window_uncertainty(sea: pd.DataFrame | None, window_id, unc, hindcast_row=None) -> WindowSea:
