@@ -66,3 +66,46 @@ def test_the_estimator_bias_is_removed(hull):
     for dof in DOFS:
         assert debiased[dof]["omega_n"] == pytest.approx(roots[dof.lower()], rel=0.007), dof
         assert debiased[dof]["estimator_bias"] == pytest.approx(raw[dof]["omega_n"] / debiased[dof]["omega_n"])
+
+
+def test_the_loading_spread_is_the_move_of_separate_fits():
+    """`loading_std` of a combined ω_n is |ω(+σ) − ω(−σ)| / 2 of the same window de-biased at the prior moved by
+    ±1σ of its one uncertain parameter (xcg here: it moves heave-pitch coupling), each fitted on its own, and the
+    interval grows by 1.96 · loading_std in quadrature."""
+    model = open_vessel(ROOT / "configs" / "vessels" / "sample_osv.yaml")
+    window, _ = _window("osv", model)
+    base = model.base_loading
+    nat = natural_frequencies(model.db, base)[0]
+    prior = {d: float(nat[i]) for i, d in enumerate(DOFS)}
+    spread = ident.loading_spread(model, base, known=[n for n in model.spec.priors if n != "xcg"])
+    assert len(spread) == 2
+    assert spread.xcg.tolist() == pytest.approx([base.xcg[0] + 1.5, base.xcg[0] - 1.5])
+
+    def combined(loading, spread=None):
+        rows = ident.natural_frequency_rows(model, [window], prior, IdentifySettings(), loading, spread)
+        return {r["dof"]: r for r in rows if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof"}
+
+    centre, widened = combined(base), combined(base, spread)
+    up, down = combined(spread.take([0])), combined(spread.take([1]))
+    for dof in DOFS:
+        expected = abs(up[dof]["omega_n"] - down[dof]["omega_n"]) / 2
+        assert widened[dof]["loading_std"] == pytest.approx(expected, rel=1e-9, abs=1e-12), dof
+        half = np.hypot(0.5 * (centre[dof]["ci_high"] - centre[dof]["ci_low"]), 1.96 * expected)
+        assert widened[dof]["ci_high"] - widened[dof]["ci_low"] == pytest.approx(2 * half, rel=1e-9), dof
+        assert widened[dof]["omega_n"] == centre[dof]["omega_n"]
+    assert widened["Heave"]["loading_std"] > 5e-3 * prior["Heave"]  # xcg does move the heave fit: not vacuous
+
+
+def test_a_hindcast_tp_error_shared_by_the_windows_does_not_average_down():
+    """Every window of a run reads one hindcast, whose Tp error persists over the run: the part of each window's
+    interval that comes from it (`tp_std`) is added after the windows are combined, not divided by √N."""
+    def row(omega, tp_std, random_std=0.001):
+        half = 1.96 * np.hypot(random_std, tp_std)
+        return {"omega_n": omega, "ci_low": omega - half, "ci_high": omega + half, "zeta": 0.05, "tp_std": tp_std}
+
+    omegas = [0.999, 1.0, 1.001, 1.0005]
+    independent = ident._combine([row(o, 0.0) for o in omegas], "Roll", "admittance_peak_sdof", 1.0)
+    shared = ident._combine([row(o, 0.01) for o in omegas], "Roll", "admittance_peak_sdof", 1.0)
+    half = 0.5 * (shared["ci_high"] - shared["ci_low"])
+    assert half == pytest.approx(np.hypot(0.5 * (independent["ci_high"] - independent["ci_low"]), 1.96 * 0.01))
+    assert half > 1.96 * 0.01  # four windows, still the whole of one window's Tp term

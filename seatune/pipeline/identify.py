@@ -14,6 +14,7 @@ spectrum peak), combined over windows, with the loading parameters they imply.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import pandas as pd
@@ -30,7 +31,8 @@ NF_UNITS = {"dof": "", "method": "", "window_id": "", "omega_n": "rad/s", "ci_lo
             "zeta": "dimensionless", "model_prior": "rad/s", "derived": "",
             "derived_value": "per row; the unit named in `derived`",
             "derived_std": "per row; the unit named in `derived`",
-            "reason": "text", "estimator_bias": "dimensionless", "sea_std": "rad/s"}
+            "reason": "text", "estimator_bias": "dimensionless", "tp_std": "rad/s", "sea_std": "rad/s",
+            "loading_std": "rad/s"}
 DOF_INDEX = {"Heave": 2, "Roll": 3, "Pitch": 4}
 
 
@@ -244,10 +246,13 @@ def _combine(rows: list[dict], dof: str, method: str, prior_omega: float) -> dic
     has heavy-tailed errors its interval cannot show (the hindcast's spectral shape at the resonance, heave-pitch
     coupling in quartering seas), and the median ignores one such outlier where the inverse-variance mean
     follows it. The interval is the inverse-variance one, widened by the Birge ratio when the windows disagree
-    more than their intervals allow, and by √(π/2) for the median's efficiency."""
+    more than their intervals allow, and by √(π/2) for the median's efficiency. The part of each window's interval
+    that comes from the hindcast's Tp error (`tp_std`) is left out of that and added after: one hindcast's error
+    persists over a run's windows, so it does not average down."""
     if not rows:
         return None
-    std = np.array([max((r["ci_high"] - r["ci_low"]) / 3.92, 1e-9) for r in rows])
+    shared = np.array([r.get("tp_std", 0.0) for r in rows])
+    std = np.sqrt(np.maximum(np.array([(r["ci_high"] - r["ci_low"]) / 3.92 for r in rows]) ** 2 - shared**2, 1e-18))
     w = 1.0 / std**2
     om = np.array([r["omega_n"] for r in rows])
     mean = float((w * om).sum() / w.sum())
@@ -256,10 +261,12 @@ def _combine(rows: list[dict], dof: str, method: str, prior_omega: float) -> dic
         sd *= max(1.0, float(np.sqrt((w * (om - mean) ** 2).sum() / (len(rows) - 1))))
     if len(rows) >= 3:
         mean, sd = float(np.median(om)), sd * np.sqrt(np.pi / 2)
+    tp_std = float((w * shared).sum() / w.sum())
+    sd = float(np.hypot(sd, tp_std))
     zeta = [r["zeta"] for r in rows if np.isfinite(r["zeta"])]
     return {"dof": dof, "method": method, "window_id": "all", "omega_n": mean, "ci_low": mean - 1.96 * sd,
             "ci_high": mean + 1.96 * sd, "zeta": float(np.mean(zeta)) if zeta else np.nan,
-            "model_prior": prior_omega}
+            "model_prior": prior_omega, "tp_std": tp_std}
 
 
 def mode_spectra(model, modes, spectra_w: pd.DataFrame, motions_w: pd.DataFrame | None, segment_s: float):
@@ -292,22 +299,31 @@ def _dt(motions: pd.DataFrame) -> float:
 
 
 def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str, float], settings,
-                           loading=None) -> list[dict]:
+                           loading=None, spread=None) -> list[dict]:
     """Per window whose wave energy reaches the resonance: the peak of the mechanical admittance
     √(S_xx/S_FF) in prior ω_n·(1 ± range) refined by an SDOF fit with its CI (de Jong §5.6.2 and ch. 6, with the
     model's excitation in place of the wave spectrum so that the excitation's own frequency dependence does not
     move the peak); roll also from its response-spectrum peak. Combined over windows by inverse variance.
 
-    With `loading` (the prior), each window's fit is corrected for the estimator's own bias: the same fit on the
-    model's noise-free spectra in that window's sea lands at ω_fit,model instead of the model's coupled mode
-    ω_prior (coupled excitation — sway into roll, pitch into heave — and frequency-dependent A and B bend the
-    SDOF shape), so the measured fit is scaled by ω_prior/ω_fit,model (`estimator_bias` = the inverse)."""
+    With `loading` (the prior with the run's `identify.known` values), each window's fit is corrected for the
+    estimator's own bias: the same fit on that loading's noise-free spectra in the window's sea lands at
+    ω_fit,model instead of its coupled mode ω_ref (coupled excitation — sway into roll, pitch into heave — and
+    frequency-dependent A and B bend the SDOF shape), so the measured fit is scaled by ω_ref/ω_fit,model
+    (`estimator_bias` = the inverse).
+
+    That bias is the model's at `loading`, and the true loading is uncertain. With `spread` (`loading_spread`:
+    `loading` moved by ±1σ of each uncertain parameter, in pairs), the de-biasing is repeated at each of those
+    loadings and the combined ω_n's interval widened by 1.96 · `loading_std`, the linearised spread
+    √Σ_j ((ω(+σ_j) − ω(−σ_j)) / 2)². Every window shares the loading, so this term does not average down."""
     from seatune.identification.natural_frequency import spectrum_peak
     from seatune.identification.rao_estimation import chi2_interval, energetic_band
+    from seatune.physics.modes import natural_frequencies
 
     out = []
     rng = settings.search_range
     dof_row = {"Heave": 0, "Roll": 1, "Pitch": 2}
+    ref = natural_frequencies(model.db, loading)[0] if loading is not None else None
+    spread_ref = natural_frequencies(model.db, spread) if loading is not None and spread is not None else None
     for dof, prior in prior_omega.items():
         fits, peaks = [], []
         skipped = {"no channel measures it": 0, "low-confidence window": 0,
@@ -336,8 +352,12 @@ def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str,
                 if ok.sum() >= 5 else None
             why = 3
             if row is not None and loading is not None:
-                row = _debiased(row, model, loading, w, omega[ok], amp[ok], lo[ok], hi[ok], s_ff[ok], s_wave[ok],
-                                dof_row[dof], prior, rng)
+                bias = partial(_model_bias, model, w=w, omega=omega[ok], amp=amp[ok], lo=lo[ok], hi=hi[ok],
+                               s_ff=s_ff[ok], s_wave=s_wave[ok], k=dof_row[dof], prior=prior, rng=rng)
+                raw, row = row, _debiased(row, bias(loading, ref[dof_row[dof]]))
+                if row is not None and spread_ref is not None:
+                    row["omega_by_loading"] = raw["omega_n"] / np.array(
+                        [bias(spread.take([i]), spread_ref[i, dof_row[dof]]) for i in range(len(spread))])
                 why = 4
             if row is None:
                 skipped[reasons[why]] += 1
@@ -353,6 +373,8 @@ def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str,
                                   "zeta": np.nan, "model_prior": prior})
         for rows, method in ((fits, "admittance_peak_sdof"), (peaks, "response_spectrum_peak")):
             combined = _combine(rows, dof, method, prior)
+            if combined and method == "admittance_peak_sdof" and spread_ref is not None:
+                combined = _with_loading_std(combined, rows, dof, prior)
             out += rows + ([combined] if combined else [])
         if not fits:  # never a silent omission: the row says why
             why = "; ".join(f"{k} ({n} of {len(per_window)} windows)" for k, n in skipped.items() if n) \
@@ -390,24 +412,65 @@ def with_sea_spread(rows: list[dict], model, per_window: list[dict], prior_omega
     return out
 
 
+def loading_spread(model, center, known=()):
+    """`center` moved by +1σ and −1σ (clipped to the bounds) of each vessel prior not in `known`, in pairs: a
+    Loading of 2n rows, or None without such priors."""
+    from seatune.physics.loading import PARAMETERS, Loading
+
+    names = [n for n in model.spec.priors if n not in known]
+    if not names:
+        return None
+    values = {n: np.repeat(getattr(center, n), 2 * len(names)) for n in names}
+    for j, n in enumerate(names):
+        p = model.spec.priors[n]
+        lo, hi = p.bounds if p.bounds is not None else (-np.inf, np.inf)
+        values[n][2 * j: 2 * j + 2] = np.clip(values[n][2 * j] + np.array([1.0, -1.0]) * p.std, lo, hi)
+    base = {p: getattr(center, p) for p in PARAMETERS}
+    return Loading(**(base | values))
+
+
+def _with_loading_std(combined: dict, fits: list[dict], dof: str, prior: float) -> dict:
+    """`combined` with `loading_std` from its windows' ω_n de-biased at each loading of the spread (a window whose
+    fit fails there keeps its own value) and the interval widened by 1.96 · loading_std in quadrature."""
+    by = [r.get("omega_by_loading") for r in fits]
+    if not by or any(b is None for b in by):
+        return combined
+    moved = []
+    for i in range(len(by[0])):
+        rows = [r | {"omega_n": b[i], "ci_low": r["ci_low"] + b[i] - r["omega_n"],
+                     "ci_high": r["ci_high"] + b[i] - r["omega_n"]} if np.isfinite(b[i]) else r
+                for r, b in zip(fits, by, strict=True)]
+        moved.append(_combine(rows, dof, combined["method"], prior)["omega_n"])
+    moved = np.asarray(moved).reshape(-1, 2)
+    loading_std = float(np.sqrt(np.sum((0.5 * (moved[:, 0] - moved[:, 1])) ** 2)))
+    half = np.hypot(0.5 * (combined["ci_high"] - combined["ci_low"]), 1.96 * loading_std)
+    return combined | {"ci_low": combined["omega_n"] - half, "ci_high": combined["omega_n"] + half,
+                       "loading_std": loading_std}
+
+
 def _sea_name(w: dict, dof: str) -> str | None:
     """The name of the sea a window's `dof` mode is read against."""
     return w.get("sea_by_mode", {}).get(dof, w.get("sea_name"))
 
 
-def _debiased(row: dict, model, loading, w: dict, omega, amp, lo, hi, s_ff, s_wave, k: int, prior: float,
-              rng: float) -> dict | None:
-    """`row` scaled by ω_prior / ω_fit,model, the same fit on the model's own spectrum (same points, same relative
-    intervals). None when the model's noise-free spectrum gives no fit: then the measured one is noise or another
-    system's peak (on the trial bank such roll fits were 20 % off in median, 1 in 8 inside their interval)."""
+def _model_bias(model, loading, reference: float, w: dict, omega, amp, lo, hi, s_ff, s_wave, k: int, prior: float,
+                rng: float) -> float:
+    """ω_fit,model / ω_ref: the same fit on the spectrum of the model at `loading` (same points, same relative
+    intervals) over that model's coupled mode ω_ref; NaN when the model's noise-free spectrum gives no fit."""
     s_model = model_mode_spectra(model, loading, omega, w["dirs"], _wave_on(w, omega), w["heading"])[k]
     amp_m = np.sqrt(s_model / s_ff)
     fit_m = _fit_mode(omega, amp_m, amp_m * lo / amp, amp_m * hi / amp, s_wave, prior, rng, 0.0)
-    if fit_m is None:
+    return fit_m["omega_n"] / reference if fit_m is not None else np.nan
+
+
+def _debiased(row: dict, bias: float) -> dict | None:
+    """`row` divided by the estimator's `bias` (`_model_bias`). None when that is NaN: the model's noise-free
+    spectrum gives no fit, so the measured one is noise or another system's peak (on the trial bank such roll
+    fits were 20 % off in median, 1 in 8 inside their interval)."""
+    if not np.isfinite(bias):
         return None
-    bias = fit_m["omega_n"] / prior
     return row | {"omega_n": row["omega_n"] / bias, "ci_low": row["ci_low"] / bias, "ci_high": row["ci_high"] / bias,
-                  "estimator_bias": bias}
+                  "tp_std": row["tp_std"] / bias, "estimator_bias": bias}
 
 
 def _fit_mode(omega, amp, lo, hi, s_wave, prior: float, rng: float, tp_rel_std: float) -> dict | None:
@@ -429,6 +492,10 @@ def _fit_mode(omega, amp, lo, hi, s_wave, prior: float, rng: float, tp_rel_std: 
     best = fit(1.0)
     if best is None:
         return None
+    if tp_rel_std == 0:  # no tilt: the shifts below are exactly 0
+        half = 0.5 * (best.omega_n_ci[1] - best.omega_n_ci[0])
+        return {"omega_n": best.omega_n, "ci_low": best.omega_n - half, "ci_high": best.omega_n + half,
+                "zeta": best.zeta, "tp_std": 0.0}
     tilt = 0.5 * (1.0 + np.gradient(np.log(s_wave), np.log(omega))) * tp_rel_std  # on ln|admittance|
     shifts = [abs(f.omega_n - best.omega_n) if f is not None else np.inf
               for f in (fit(np.exp(tilt)), fit(np.exp(-tilt)))]
@@ -437,7 +504,7 @@ def _fit_mode(omega, amp, lo, hi, s_wave, prior: float, rng: float, tp_rel_std: 
         return None
     half = np.hypot(0.5 * (best.omega_n_ci[1] - best.omega_n_ci[0]), 1.96 * shift)
     return {"omega_n": best.omega_n, "ci_low": best.omega_n - half, "ci_high": best.omega_n + half,
-            "zeta": best.zeta}
+            "zeta": best.zeta, "tp_std": shift}
 
 
 def _wave_on(w: dict, omega: np.ndarray) -> np.ndarray:
@@ -569,10 +636,11 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
         raos = pd.concat([raos, *aggregate_rows(per_window, raos, settings)], ignore_index=True)
     prior_nat = natural_frequencies(model.db, prior)[0]
     prior_omega = {dof: float(prior_nat[i]) for i, dof in enumerate(("Heave", "Roll", "Pitch"))}
-    rows = natural_frequency_rows(model, per_window, prior_omega, settings,
-                                  prior if settings.debias_modes else None)
-    rows = with_sea_spread(rows, model, per_window, prior_omega, settings, prior if settings.debias_modes else None)
     known = model.loading(**settings.known) if settings.known else prior
+    center = known if settings.debias_modes else None  # the estimator's bias at the loading as far as it is known
+    rows = natural_frequency_rows(model, per_window, prior_omega, settings, center,
+                                  loading_spread(model, known, settings.known) if center is not None else None)
+    rows = with_sea_spread(rows, model, per_window, prior_omega, settings, center)
     rows += derived_parameters(model, known, rows)
     nat = pd.DataFrame(rows, columns=list(NF_UNITS))
     write_table(raos, out_r, RAO_UNITS, {"fingerprint": fp})
