@@ -308,7 +308,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
         "windows": int(table["window_id"].nunique()) if len(table) else 0,
         "partitions": len(table),
         "added": len(added),
-        "hs_ratio": float(np.nanmedian(ratio)),
+        "hs_ratio": float(np.nanmedian(ratio)) if np.isfinite(ratio).any() else float("nan"),
         "added_hs": [round(float(v), 2) for v in added["hs"]],
     }
 
