@@ -207,15 +207,23 @@ def test_a_tuned_loading_does_not_depend_on_the_origin(barge, tmp_path):
         assert means[name][1] == pytest.approx(means["waterline"][1], abs=2e-3)
 
 
-def test_per_draft_capytaine_files_make_one_database(tmp_path):
-    """Three per-draft datasets (the mesh changes with the draft) become one multi-draft database whose mass is
-    tunable; at a database draft it equals the single-file import, and mismatched grids are named."""
+@pytest.fixture(scope="module")
+def per_draft(tmp_path_factory):
+    """The barge solved by Capytaine at three drafts (one mesh per draft), one dataset file each."""
+    folder = tmp_path_factory.mktemp("per_draft")
     paths = []
     for draft in (1.8, 2.0, 2.2):
         body = _body(CENTRES["keel"], draft=draft)
         ds = _solve(body, OMEGA[::3] + [np.inf], BETA).assign(draught=draft)
-        paths.append(tmp_path / f"barge_{draft}.nc")
+        paths.append(folder / f"barge_{draft}.nc")
         export_dataset(paths[-1], ds)
+    return paths
+
+
+def test_per_draft_capytaine_files_make_one_database(per_draft, tmp_path):
+    """Three per-draft datasets (the mesh changes with the draft) become one multi-draft database whose mass is
+    tunable; at a database draft it equals the single-file import, and mismatched grids are named."""
+    paths = per_draft
     db = read_capytaine_files(paths[::-1])
     assert db.drafts.tolist() == [1.8, 2.0, 2.2]
     single = read_capytaine_dataset(paths[1])
@@ -235,6 +243,60 @@ def test_per_draft_capytaine_files_make_one_database(tmp_path):
     with pytest.raises(UserError, match="omega") as err:
         read_capytaine_files(paths + [tmp_path / "odd.nc"])
     assert "odd.nc" in str(err.value)
+
+
+def test_a_vessel_from_per_draft_files_tunes_mass(per_draft, tmp_path):
+    """A vessel YAML with `hull.capytaine.files` (a glob of the three per-draft datasets) predicts, at the mass of
+    its 2.0 m draft, the same channel σ as the vessel built on that one dataset (to 1e-9); it accepts a mass prior
+    (the one-dataset vessel refuses it), and the DBI backend finds a mass between two drafts from the σ it gives."""
+    from seatune.errors import UserError
+    from seatune.pipeline.vessel import open_vessel
+    from seatune.tuning.dbi import DBI
+    from seatune.tuning.forward import ChannelPower, WindowStatistics
+    from seatune.tuning.interface import Observation, Parameter, SeaState
+
+    mass = RHO * float(read_capytaine_dataset(per_draft[1]).disp_volume[0])  # displacement at 2.0 m
+    prior = {"mean": mass, "std": 0.03 * mass, "bounds": [0.92 * mass, 1.08 * mass]}
+    many = _vessel(tmp_path, "many", {"capytaine": {"files": str(per_draft[0].parent / "barge_*.nc")}}, mass)
+    spec = yaml.safe_load(many.read_text())
+    spec["priors"]["mass"] = prior
+    many.write_text(yaml.safe_dump(spec))
+    one = _vessel(tmp_path, "one", {"capytaine": {"file": str(per_draft[1])}}, mass)
+    vessels = {"many": open_vessel(many), "one": open_vessel(one)}
+    assert vessels["many"].db.drafts.tolist() == [1.8, 2.0, 2.2]
+
+    names = ("roll:sigma", "pitch:sigma", "imu_fy:sigma", "imu_fz:sigma")
+    channels = [n.split(":")[0] for n in names]
+    omega = vessels["one"].db.omega
+    tp, hs, wp = 7.0, 2.0, 2 * np.pi / 7.0
+    s1 = 5 / 16 * hs**2 * wp**4 / omega**5 * np.exp(-1.25 * (wp / omega) ** 4)
+    dirs = np.arange(0.0, 360.0, 15.0)
+    spread = np.cos(np.radians((dirs - 120.0 + 180.0) % 360.0 - 180.0) / 2) ** 4
+    spec2 = s1[:, None] * spread[None] / (spread.sum() * np.radians(15.0))
+    theta = np.array([[hs, tp, 60.0]])
+
+    def statistics(vessel, parameters):
+        return WindowStatistics(ChannelPower(vessel, parameters, channels), names, spec2, dirs, 0.0, (hs, tp, 60.0), {})
+
+    sigma = {k: statistics(v, ("r44",)).predict_paired(np.array([[R44]]), theta)[0] for k, v in vessels.items()}
+    assert_allclose(sigma["many"], sigma["one"], rtol=1e-9)
+
+    spec = yaml.safe_load(one.read_text())
+    spec["priors"]["mass"] = prior
+    one.write_text(yaml.safe_dump(spec))
+    with pytest.raises(UserError, match="single-draft"):
+        open_vessel(one)
+
+    heavy = 1.04 * mass  # between the 2.0 and 2.2 m drafts
+    by_mass = statistics(vessels["many"], ("mass",))
+    z = by_mass.predict_paired(np.array([[heavy]]), theta)[0]
+    assert np.max(np.abs(z / by_mass.predict_paired(np.array([[mass]]), theta)[0] - 1)) > 0.01  # mass shows
+    dbi = DBI([Parameter("mass", mass, 0.03 * mass, 0.92 * mass, 1.08 * mass)], database_points=9, pmf_points=80,
+              interpolation="cubic")
+    post = dbi.update(by_mass, Observation("w", names, z, (0.01 * z) ** 2, 3600.0),
+                      SeaState.certain(("hs", "tp", "beta_deg"), (hs, tp, 60.0)))
+    assert post.mean[0] == pytest.approx(heavy, rel=0.01)
+    assert abs(post.mean[0] - heavy) < 2 * post.std[0]
 
 
 def test_a_mode_the_waves_do_not_reach_is_reported_with_its_reason():
