@@ -44,14 +44,14 @@ def _inertia_about(mass: float, cog, radii, centre) -> np.ndarray:
     return m
 
 
-def _body(centre, draft=DRAFT):
+def _body(centre, draft=DRAFT, zg=ZG):
     mesh = cpt.mesh_parallelepiped(size=(LENGTH, BEAM, 2 * draft + 2.0), center=(0.0, 0.0, 1.0),
                                    resolution=(15, 5, 6))
     body = cpt.FloatingBody(mesh=mesh, dofs=cpt.rigid_body_dofs(rotation_center=centre),
-                            center_of_mass=(0.0, 0.0, ZG)).immersed_part()
+                            center_of_mass=(0.0, 0.0, zg)).immersed_part()
     body.mass = RHO * body.volume  # free floating
     body.hydrostatic_stiffness = body.compute_hydrostatic_stiffness(rho=RHO, g=G)
-    inertia = _inertia_about(body.mass, (0.0, 0.0, ZG), (R44, R55, R66), centre)
+    inertia = _inertia_about(body.mass, (0.0, 0.0, zg), (R44, R55, R66), centre)
     body.inertia_matrix = body.add_dofs_labels_to_matrix(inertia)
     return body
 
@@ -297,6 +297,50 @@ def test_a_vessel_from_per_draft_files_tunes_mass(per_draft, tmp_path):
                       SeaState.certain(("hs", "tp", "beta_deg"), (hs, tp, 60.0)))
     assert post.mean[0] == pytest.approx(heavy, rel=0.01)
     assert abs(post.mean[0] - heavy) < 2 * post.std[0]
+
+
+def test_per_draft_wamit_runs_make_the_same_database(tmp_path):
+    """The barge's three per-draft BEM runs (one KG, so the centre of gravity sits at a different height above each
+    run's waterline), written by Capytaine's own WAMIT exporter, read through `hull.wamit.runs`, give the database
+    the Capytaine files of the same runs give (to the 7 digits WAMIT files carry), and a tunable mass."""
+    from capytaine.io.wamit import export_to_wamit
+
+    from seatune.errors import UserError
+    from seatune.pipeline.vessel import open_vessel
+
+    kg = DRAFT + ZG
+    runs, files = [], []
+    for draft in (1.8, 2.0, 2.2):
+        body = _body(CENTRES["waterline"], draft=draft, zg=kg - draft)
+        ds = _solve(body, OMEGA[::3] + [np.inf], BETA).assign(draught=draft)
+        files.append(f"barge_{draft}.nc")
+        export_dataset(tmp_path / files[-1], ds)
+        export_to_wamit(ds, str(tmp_path / f"run_{draft}"), exports=("1", "3", "hst"))
+        runs.append({"prefix": f"run_{draft}", "draft": draft, "mass": float(RHO * body.volume)})
+    mass = runs[1]["mass"]
+    prior = {"mass": {"mean": mass, "std": 0.03 * mass, "bounds": [0.92 * mass, 1.08 * mass]}}
+    paths = {}
+    for name, hull in (("wamit", {"wamit": {"runs": runs}}), ("capytaine", {"capytaine": {"files": files}})):
+        paths[name] = _vessel(tmp_path, name, hull, mass)
+        spec = yaml.safe_load(paths[name].read_text())
+        spec["priors"] |= prior
+        paths[name].write_text(yaml.safe_dump(spec))
+    wamit, capy = (open_vessel(paths[k]).db for k in ("wamit", "capytaine"))
+    assert wamit.drafts.tolist() == capy.drafts.tolist() == [1.8, 2.0, 2.2]
+    # Capytaine's .1 writer swaps WAMIT's I (force) and J (motion), and its coarse BEM matrices are not symmetric
+    swapped = ("added_mass", "radiation_damping", "added_mass_inf")
+    for field in (*swapped, "excitation_force", "buoyancy_stiffness"):
+        ref = getattr(capy, field).swapaxes(-1, -2) if field in swapped else getattr(capy, field)
+        assert_allclose(getattr(wamit, field), ref, rtol=1e-5, atol=1e-6 * np.abs(ref).max(), err_msg=field)
+    assert_allclose(wamit.disp_volume, capy.disp_volume, rtol=1e-12)
+    truth = _truth(capy).with_values(mass=np.array([1.04 * mass]))  # between the 2.0 and 2.2 m drafts
+    assert_allclose(coupled_modes(wamit, truth).omega, coupled_modes(capy, truth).omega, rtol=1e-5)
+
+    spec = yaml.safe_load(paths["wamit"].read_text())
+    del spec["hull"]["wamit"]["runs"][2]["mass"]  # no .frc either: the run's mass is unknown
+    paths["wamit"].write_text(yaml.safe_dump(spec))
+    with pytest.raises(UserError, match=r"hull.wamit.runs.2.mass"):
+        open_vessel(paths["wamit"])
 
 
 def test_a_mode_the_waves_do_not_reach_is_reported_with_its_reason():

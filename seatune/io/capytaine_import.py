@@ -74,7 +74,12 @@ def read_capytaine_files(paths) -> HydroDatabase:
     paths = [Path(p) for p in paths]
     if not paths:
         raise UserError("hull.capytaine.files", None, "no file matches")
-    dbs = [read_capytaine_dataset(p) for p in paths]
+    return stack_drafts([read_capytaine_dataset(p) for p in paths], paths, "draught")
+
+
+def stack_drafts(dbs: list[HydroDatabase], paths: list[Path], draft_field: str) -> HydroDatabase:
+    """One multi-draft database from single-draft ones read from `paths` (Capytaine datasets, WAMIT runs): ω, wave
+    directions, ρ, g and depth must agree, and no draft may appear twice (the file is named, with `draft_field`)."""
     first = dbs[0]
     for p, db in zip(paths[1:], dbs[1:], strict=True):
         for name in ("omega", "wave_direction"):
@@ -89,7 +94,7 @@ def read_capytaine_files(paths) -> HydroDatabase:
     order = np.argsort(drafts)
     if np.any(np.diff(drafts[order]) <= 0):
         k = int(order[np.argmin(np.diff(drafts[order])) + 1])
-        raise UserError(str(paths[k]), "draught", f"{drafts[k]:g} m appears in two files")
+        raise UserError(str(paths[k]), draft_field, f"{drafts[k]:g} m appears in two files")
     dbs = [dbs[k] for k in order]
 
     def stack(name):

@@ -57,10 +57,30 @@ class MeshHullSpec(_Strict):
     draft: PositiveFloat  # the draft at which the mesh file was drawn (keel at z = -draft)
 
 
-class WamitHullSpec(_Strict):
+class WamitRunSpec(_Strict):
     prefix: str  # path without extension: PREFIX.1, PREFIX.3, PREFIX.hst (+ PREFIX.frc)
     draft: PositiveFloat
+    mass: PositiveFloat | None = None  # kg the run's .hst was computed with, when PREFIX.frc does not give it
+
+
+class WamitHullSpec(_Strict):
+    prefix: str | None = None  # one run: path without extension (PREFIX.1, .3, .hst, optional .frc)
+    draft: PositiveFloat | None = None
+    runs: list[WamitRunSpec] | None = None  # or one WAMIT run per draft: a multi-draft database
     length_scale: PositiveFloat = 1.0  # WAMIT ULEN
+
+    @model_validator(mode="after")
+    def _one_form(self):
+        if self.runs is None and (self.prefix is None or self.draft is None):
+            raise ValueError("give `prefix` and `draft` (one run) or `runs` (one run per draft)")
+        if self.runs is not None and (self.prefix is not None or self.draft is not None):
+            raise ValueError("`prefix` and `draft` go with one run; with `runs` each run gives its own")
+        if self.runs is not None and not self.runs:
+            raise ValueError("`runs` is empty")
+        return self
+
+    def all_runs(self) -> list[WamitRunSpec]:
+        return self.runs if self.runs is not None else [WamitRunSpec(prefix=self.prefix, draft=self.draft)]
 
 
 class CapytaineHullSpec(_Strict):
@@ -253,7 +273,8 @@ def _check_consistency(spec: VesselSpec, source: str) -> None:
         raise UserError(source, "drafts", "a parametric or mesh hull needs drafts: [..] for the BEM")
     if spec.hull.kind == "parametric" and spec.drafts and max(spec.drafts) >= spec.hull.parametric.depth:
         raise UserError(source, "drafts", f"every draft must be below the hull depth {spec.hull.parametric.depth:g} m")
-    single_draft = spec.hull.kind == "wamit" or (spec.drafts is not None and len(spec.drafts) == 1)
+    single_draft = (spec.hull.kind == "wamit" and len(spec.hull.wamit.all_runs()) == 1) or (
+        spec.drafts is not None and len(spec.drafts) == 1)
     for name in ("mass", "displacement"):
         if name in spec.priors and single_draft:
             raise UserError(source, f"priors.{name}", "cannot be tuned with a single draft: give >= 2 drafts")
@@ -286,5 +307,7 @@ def _referenced_files(spec: VesselSpec):
     if h.capytaine is not None:
         yield "hull.capytaine.file", h.capytaine.file
     if h.wamit is not None:
-        for ext in (".1", ".3", ".hst"):
-            yield "hull.wamit.prefix", h.wamit.prefix + ext
+        for i, run in enumerate(h.wamit.all_runs()):
+            place = "hull.wamit.prefix" if h.wamit.runs is None else f"hull.wamit.runs.{i}.prefix"
+            for ext in (".1", ".3", ".hst"):
+                yield place, run.prefix + ext

@@ -86,13 +86,24 @@ def load_database(spec: VesselSpec, base: Path, source: Path) -> HydroDatabase:
             return read_capytaine_files(capytaine_files(h.capytaine.files, base))
         return read_capytaine_dataset(base / h.capytaine.file, draft=h.capytaine.draft)
     if h.wamit is not None:
+        from seatune.io.capytaine_import import stack_drafts
         from seatune.io.wamit import read_wamit
 
         lo = spec.loading
-        mass = lo.mass if lo.mass is not None else spec.rho * lo.displacement
-        return read_wamit(str(base / h.wamit.prefix), draft=h.wamit.draft, rho=spec.rho, g=spec.g,
-                          length_scale=h.wamit.length_scale, mass=mass,
-                          center_of_mass=(lo.xcg, lo.ycg, lo.zcg - h.wamit.draft), water_depth=spec.depth_m)
+        loading_mass = lo.mass if lo.mass is not None else spec.rho * lo.displacement
+        runs = h.wamit.all_runs()
+        for i, run in enumerate(runs if h.wamit.runs is not None else []):
+            if run.mass is None and not (base / (run.prefix + ".frc")).exists():
+                raise UserError(str(source), f"hull.wamit.runs.{i}.mass", f"needed: {run.prefix}.frc does not give "
+                                "the mass the run's .hst restoring was computed with")
+        dbs = [read_wamit(str(base / run.prefix), draft=run.draft, rho=spec.rho, g=spec.g,
+                          length_scale=h.wamit.length_scale,
+                          mass=run.mass if h.wamit.runs is not None else loading_mass,  # per run: its own mass
+                          center_of_mass=(lo.xcg, lo.ycg, lo.zcg - run.draft), water_depth=spec.depth_m)
+               for run in runs]
+        if len(dbs) == 1:
+            return dbs[0]
+        return stack_drafts(dbs, [base / (run.prefix + ".hst") for run in runs], "hull.wamit.runs draft")
     where = f"hydro_database ({path})" if path is not None else "hydro_database"
     raise UserError(str(source), where, f"hydro database not built yet: run `seatune vessel build {source}`")
 
