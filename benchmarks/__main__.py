@@ -13,6 +13,7 @@ from benchmarks import (
     bench_modes,
     bench_predict,
     bench_sea,
+    bench_simulate_day,
     bench_synthesis,
     bench_ukf,
 )
@@ -20,7 +21,8 @@ from benchmarks import (
 BENCHMARKS = {"channel_sigma": bench_channel_sigma.run, "synthesis": bench_synthesis.run, "filter": bench_filter.run,
               "ingest": bench_ingest.run, "ukf": bench_ukf.run, "dbi": bench_dbi.run, "batch": bench_batch.run,
               "predict": bench_predict.run, "diagnose": bench_diagnose.run,
-              "modes": bench_modes.run, "sea": bench_sea.run}
+              "modes": bench_modes.run, "sea": bench_sea.run,
+              "simulate_day": bench_simulate_day.run}
 
 if __name__ == "__main__":
     names = sys.argv[1:] or list(BENCHMARKS)

@@ -449,3 +449,27 @@ def test_cdr_bytes_equal_mcap_ros2_own_encoder(streams, tmp_path):
     theirs = [m.data for _, _, m in make_reader(buf).iter_messages(log_time_order=False)]
     assert len(ours) == sum(len(s.table) for s in streams)
     assert theirs == ours
+
+
+@pytest.mark.parametrize("ros1", [False, True])
+def test_imu_rows_are_the_typestore_bytes(streams, monkeypatch, ros1):
+    """The fixed-layout IMU encoder (numpy, a block at a time) gives every message byte for byte as the typestore
+    serialises it, across block edges, with NaN samples, absent orientation and "not provided" covariances."""
+    from seatune.simulate import log_writers as lw
+
+    monkeypatch.setattr(lw._ImuRows, "BLOCK", 64)  # several blocks, read out of order below
+    ts = lw._typestore(ros1)
+    imu = streams[0].table.copy()
+    imu.loc[7, "wx"] = np.nan
+    imu.loc[11, "var_w"] = -1.0
+    for stream in (replace_table(streams[0], imu), streams[1]):
+        p = lw._prepare([stream])[0]
+        rows = lw._serialize(ts, p, ros1)
+        assert isinstance(rows, lw._ImuRows)  # the fast path was taken, not the fallback
+        reference = lw._serialize_each(ts, p, ros1)
+        order = np.r_[np.arange(len(reference))[::-1], np.arange(len(reference))]
+        assert [rows[int(r)] for r in order] == [reference[int(r)] for r in order]
+
+
+def replace_table(stream: Stream, table: pd.DataFrame) -> Stream:
+    return Stream(stream.topic, stream.msgtype, stream.frame_id, table)

@@ -21,7 +21,7 @@ import shutil
 import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Literal
 
@@ -210,13 +210,14 @@ def _covariances(table: pd.DataFrame, name: str, diag: tuple[int, ...] = (0, 4, 
     return list(cov)
 
 
-def _headers(ts, p: _Prepared, ros1: bool) -> list:
+def _headers(ts, p: _Prepared, ros1: bool, first: int = 0) -> list:
+    """Headers of a stream's rows; `first`: the index of the first row in the whole stream (ROS1 seq)."""
     Header, Time = ts.types["std_msgs/msg/Header"], ts.types["builtin_interfaces/msg/Time"]
     sec, nsec = np.divmod(p.stamp_ns, _NS)
     frame = p.stream.frame_id
     if ros1:  # ROS1 headers carry a per-publisher sequence number
         return [
-            Header(seq=i & 0xFFFFFFFF, stamp=Time(sec=s, nanosec=n), frame_id=frame)
+            Header(seq=(first + i) & 0xFFFFFFFF, stamp=Time(sec=s, nanosec=n), frame_id=frame)
             for i, (s, n) in enumerate(zip(sec.tolist(), nsec.tolist(), strict=True))
         ]
     return [
@@ -298,13 +299,126 @@ _BUILDERS: dict[str, Callable] = {
 }
 
 
-def _serialize(ts, p: _Prepared, ros1: bool) -> list[bytes]:
-    """Every message of a stream, in table order, serialised by the typestore (CDR little-endian or ROS1)."""
+def _serialize(ts, p: _Prepared, ros1: bool):
+    """Every message of a stream, in table order, serialised by the typestore (CDR little-endian or ROS1): a
+    sequence of bytes-like rows. IMU streams take the fixed-layout path (`_ImuRows`) when it reproduces the
+    typestore's bytes."""
     msgtype = p.stream.msgtype
-    msgs = _BUILDERS[msgtype](ts, p.stream.table, _headers(ts, p, ros1))
+    if msgtype == "sensor_msgs/msg/Imu" and len(p.stream.table):
+        rows = _ImuRows.of(ts, p, ros1)
+        if rows is not None:
+            return rows
+    return _serialize_each(ts, p, ros1)
+
+
+def _serialize_each(ts, p: _Prepared, ros1: bool, first: int = 0, stop: int | None = None) -> list[bytes]:
+    """Rows first … stop of a stream, message by message (the typestore's own path)."""
+    msgtype = p.stream.msgtype
+    rows = slice(first, stop)
+    sub = _Prepared(replace(p.stream, table=p.stream.table.iloc[rows]), p.stamp_ns[rows], p.log_ns[rows])
+    headers = _headers(ts, sub, ros1, first)
+    msgs = _BUILDERS[msgtype](ts, sub.stream.table, headers)
     if ros1:
         return [bytes(ts.serialize_ros1(m, msgtype)) for m in msgs]
     return [bytes(ts.serialize_cdr(m, msgtype, little_endian=True)) for m in msgs]
+
+
+class _ImuRows:
+    """sensor_msgs/Imu messages of one stream as fixed-size records filled by numpy, encoded a block at a time.
+
+    With one frame_id every message of a stream has the same length and layout; the layout (byte offset of the
+    stamp, the ROS1 seq and each of the 37 float64 fields) is read off a message the typestore serialises with
+    distinct marker values, so the bytes are the typestore's. `of` checks the first and last rows against the
+    typestore and returns None (the message-by-message path) if they differ."""
+
+    BLOCK = 1 << 16
+
+    def __init__(self, template: bytes, offsets: dict, p: _Prepared, ros1: bool):
+        self.template, self.p, self.ros1, self.size = template, p, ros1, len(template)
+        self.dtype = np.dtype({"names": list(offsets), "offsets": list(offsets.values()), "itemsize": self.size,
+                               "formats": ["<u4" if k in ("sec", "nanosec", "seq") else ("<f8", (1,))
+                                           for k in offsets]})
+        self._start, self._block = -1, None
+
+    @classmethod
+    def of(cls, ts, p: _Prepared, ros1: bool):
+        msgtype = "sensor_msgs/msg/Imu"
+        marks = {f"f{k}": 1.0e9 + k + 0.25 for k in range(37)}
+        marks_u = {"sec": 0x11223344, "nanosec": 0x35667788, "seq": 0x0A0B0C0D}
+        Time, Header = ts.types["builtin_interfaces/msg/Time"], ts.types["std_msgs/msg/Header"]
+        stamp = Time(sec=marks_u["sec"], nanosec=marks_u["nanosec"])
+        header = (Header(seq=marks_u["seq"], stamp=stamp, frame_id=p.stream.frame_id) if ros1
+                  else Header(stamp=stamp, frame_id=p.stream.frame_id))
+        f = list(marks.values())
+        Q, V3 = ts.types["geometry_msgs/msg/Quaternion"], ts.types["geometry_msgs/msg/Vector3"]
+        msg = ts.types[msgtype](header=header, orientation=Q(x=f[0], y=f[1], z=f[2], w=f[3]),
+                                orientation_covariance=np.array(f[4:13]), angular_velocity=V3(*f[13:16]),
+                                angular_velocity_covariance=np.array(f[16:25]), linear_acceleration=V3(*f[25:28]),
+                                linear_acceleration_covariance=np.array(f[28:37]))
+        raw = bytes(ts.serialize_ros1(msg, msgtype) if ros1 else ts.serialize_cdr(msg, msgtype, little_endian=True))
+        offsets = {}
+        for name, v in (*marks_u.items(), *marks.items()):
+            if name == "seq" and not ros1:
+                continue
+            packed = np.array([v], dtype="<u4" if name in marks_u else "<f8").tobytes()
+            at = raw.find(packed)
+            if at < 0 or raw.find(packed, at + 1) >= 0:
+                return None
+            offsets[name] = at
+        rows = cls(raw, offsets, p, ros1)
+        n = len(p.stream.table)
+        for r in {0, n - 1}:
+            if bytes(rows[r]) != _serialize_each(ts, p, ros1, r, r + 1)[0]:
+                return None
+        return rows
+
+    def __len__(self) -> int:
+        return len(self.p.stream.table)
+
+    def __getitem__(self, r: int) -> bytes:
+        if self._block is None or not self._start <= r < self._start + self.BLOCK:
+            self._encode(r - r % self.BLOCK)
+        k = (r - self._start) * self.size
+        return self._block[k:k + self.size].tobytes()
+
+    def _encode(self, start: int) -> None:
+        stop = min(start + self.BLOCK, len(self))
+        raw = np.frombuffer(self.template * (stop - start), dtype=np.uint8).copy()  # the constant bytes kept
+        out = raw.view(self.dtype)
+        sec, nsec = np.divmod(self.p.stamp_ns[start:stop], _NS)
+        out["sec"], out["nanosec"] = sec, nsec
+        if self.ros1:
+            out["seq"] = np.arange(start, stop, dtype=np.int64) & 0xFFFFFFFF
+        values = _imu_values(self.p.stream.table.iloc[start:stop])  # a block at a time: memory flat in length
+        for k in range(37):
+            out[f"f{k}"][:, 0] = values[:, k]
+        self._start, self._block = start, memoryview(raw)
+
+
+def _imu_values(t: pd.DataFrame) -> np.ndarray:
+    """The 37 float64 fields of each row's Imu message, as `_build_imu` fills them: (n, 37)."""
+    n = len(t)
+
+    def column(name, default=np.nan):
+        return t[name].to_numpy(dtype=np.float64) if name in t.columns else np.full(n, default)
+
+    def covariance(name, not_provided):
+        c = np.zeros((n, 9))
+        if name not in t.columns:
+            c[:, 0] = -1.0 if not_provided else 0.0
+            return c
+        var = t[name].to_numpy(dtype=np.float64)
+        c[:, [0, 4, 8]] = var[:, None]
+        absent = var < 0
+        c[absent] = 0.0
+        c[absent, 0] = -1.0
+        return c
+
+    q = np.column_stack([column(c, 0.0) for c in _QUAT])
+    w = np.column_stack([column(c) for c in ("wx", "wy", "wz")])
+    a = np.column_stack([column(c) for c in ("ax", "ay", "az")])
+    return np.hstack([q, covariance("var_q", "qw" not in t.columns), w, covariance("var_w", False), a,
+                      covariance("var_a", False)])
 
 
 # --------------------------------------------------------------------------------------------------------

@@ -116,6 +116,7 @@ def simulate(spec: ScenarioSpec, model: VesselModel, progress=None) -> Simulated
     time = pd.DatetimeIndex(pd.Timestamp(spec.start_time).tz_convert("UTC") + pd.to_timedelta(t, unit="s"))
     lat, lon = kin.latlon(*spec.start_position)
     streams = {"/imu/data": _imu_table(spec, ctx, time, draft)}
+    del ctx, derivs, xi, xi_dot, xi_ddot, motions  # the 6-DOF series are in the channels and the IMU table now
     streams.update(_gnss_tables(spec, kin, time, lat, lon, rng))
     streams.update(_heave_tables(spec, model, channels, time, rng))
     if spec.sensors.quantize:
@@ -166,14 +167,17 @@ def _imu_table(spec: ScenarioSpec, ctx: EffectContext, time, draft: float) -> pd
     acc_body = np.stack([xi_ddot @ point_translation(p, a) for a in range(3)], axis=-1)
     heading_rot = imu_model.attitude(np.zeros_like(yaw_slow), np.zeros_like(yaw_slow), yaw_slow)
     acc_world = heading_rot.apply(acc_body) + np.c_[kin.acceleration_en, np.zeros(len(yaw_slow))]
+    del acc_body, heading_rot  # a day at 10 Hz: each of these is tens of MB
     force = imu_model.specific_force(rot, acc_world, ctx.model.db.g)
+    del acc_world
     ctx.imu = {"rotation": rot, "rates": rates, "force": force}
     for eff in spec.effects:
         EFFECTS[eff.kind].imu(ctx, eff)
-    rot, rates, force = ctx.imu["rotation"], ctx.imu["rates"], ctx.imu["force"]
+    rot, rates, force = ctx.imu.pop("rotation"), ctx.imu.pop("rates"), ctx.imu.pop("force")
     rng, fs = ctx.rng, ctx.fs
     noise_rot = imu_model.Rotation.from_rotvec(rng.normal(0.0, cfg.angle_noise_std, (len(roll), 3)))
     q = (rot * noise_rot).as_quat()  # x, y, z, w as ROS orders them
+    del rot, noise_rot
     w = rates + np.array(cfg.gyro_bias) + rng.normal(0.0, cfg.gyro_noise_density * np.sqrt(fs), rates.shape)
     f = force + np.array(cfg.accel_bias) + rng.normal(0.0, cfg.accel_noise_density * np.sqrt(fs), force.shape)
     return pd.DataFrame({"time": time, "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3],
