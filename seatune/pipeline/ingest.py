@@ -42,6 +42,46 @@ def read_logs(run: Run, echo=print) -> list:
     return out
 
 
+def time_span(log) -> tuple[pd.Timestamp, pd.Timestamp] | None:
+    """First and last stamp of any topic of a log (None when it holds no sample)."""
+    times = [t.table["time"] for t in log.topics.values() if len(t.table)]
+    if not times:
+        return None
+    return min(t.min() for t in times), max(t.max() for t in times)
+
+
+def in_time_order(run: Run, logs: list) -> tuple[list, list[str]]:
+    """The logs with the files of each `logs:` entry that matched several (a logger's split files) in the order of
+    their first stamp, whatever their names; and a warning per such entry whose files overlap (the repeated
+    samples are removed when resampled), leave a gap longer than `ingest.max_gap_s`, or sort otherwise by name."""
+    groups: dict[int, list[int]] = {}
+    for k, (_, spec) in enumerate(run.logs):
+        groups.setdefault(id(spec), []).append(k)
+    order, notes = [], []
+    for members in groups.values():
+        spans = {k: time_span(logs[k]) for k in members}
+        members = sorted(members, key=lambda k: (spans[k] is None, spans[k][0] if spans[k] else 0, k))
+        order += members
+        if len(members) < 2:
+            continue
+        entry = run.logs[members[0]][1].path
+        parts = []
+        timed = [k for k in members if spans[k] is not None]
+        for a, b in zip(timed, timed[1:], strict=False):
+            step = (spans[b][0] - spans[a][1]).total_seconds()
+            name_a, name_b = logs[a].path.name, logs[b].path.name
+            if step < 0:
+                parts.append(f"{name_b} overlaps {name_a} by {-step:.1f} s")
+            elif step > run.spec.ingest.max_gap_s:
+                parts.append(f"{step:.1f} s gap between {name_a} and {name_b}")
+        renamed = members != sorted(members, key=lambda k: logs[k].path.name)
+        if parts or renamed:
+            notes.append(f"{entry}: {len(members)} files read in time order"
+                         + (" (not their name order)" if renamed else "")
+                         + (f"; {'; '.join(parts)}" if parts else ""))
+    return [logs[k] for k in order], notes
+
+
 def build_motions(run: Run, logs: list, heave_names: dict[str, str],
                   mounting=(None, "imu")) -> tuple[pd.DataFrame, dict, list[str]]:
     """The motion table on a uniform grid, with the counts of what was repaired and the warnings."""
@@ -142,7 +182,7 @@ def ingest(run: Run, model, echo=print, force: bool = False) -> dict:
     out_m, out_w = run.artefact("motions.parquet"), run.artefact("waves.parquet")
     if not force and is_fresh([out_m, out_w], fp):
         return {"skipped": True}
-    logs = read_logs(run)
+    logs, split_notes = in_time_order(run, read_logs(run))
     limits = Limits(**run.spec.ingest.plausibility.model_dump())
     gated, gate_warnings = gate_logs(logs, limits)  # implausible samples masked before they are resampled
     motions, counts, warnings = build_motions(run, logs, heave_column_names(model), imu_mounting(run, model))
@@ -159,6 +199,7 @@ def ingest(run: Run, model, echo=print, force: bool = False) -> dict:
         raise UserError(str(run.path), "logs", "no position (NavSatFix or GNSS CSV): the hindcast cannot be "
                                                 "placed on the track")
     waves, hc = build_waves(run, motions)
+    warnings = split_notes + warnings
     meta = {"fingerprint": fp, "counts": counts, "warnings": warnings,
             "truncated_logs": [str(log.path) for log in logs if log.truncated]}
     write_table(motions, out_m, motion_units(motions.columns, model), meta)
