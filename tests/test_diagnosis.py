@@ -331,3 +331,22 @@ def test_bad_effect_in_the_vessel_yaml_is_a_user_error(tmp_path, sample_model):
     path = _augmented(tmp_path, sample_model, [{"kind": "anti_roll_tank", "omega_t": 0.5, "zeta_t": 0.1}])
     res = run_cli("vessel", "info", path)
     assert res.returncode == 2 and "effects.0" in res.stderr and "mu" in res.stderr
+
+
+def test_the_lever_arm_reaches_across_the_hull():
+    """The lever-arm range comes from the hull: the built OSV's own length and beam, and for the barge imported from
+    Capytaine files the box of its waterplane moments, which is the generator's 60 × 20 m box; dx starts from
+    ± L/2 (a reference at the aft perpendicular instead of midship), beyond the old ± 15 m."""
+    from seatune.diagnosis.effects import hull_extent
+    from seatune.pipeline.vessel import open_vessel
+    from seatune.simulate.independent import hulls
+    from tests.conftest import ROOT
+
+    barge = open_vessel(ROOT / "configs" / "vessels" / "barge.yaml")
+    assert hull_extent(barge) == pytest.approx((hulls.LENGTH, hulls.BEAM), rel=1e-6)
+    osv = open_vessel(ROOT / "configs" / "vessels" / "sample_osv.yaml")
+    assert hull_extent(osv) == (96.0, 22.0)
+    lever = {e.name: e for e in library(vessel=osv)}["imu_lever_arm"]
+    dx = next(q for q in lever.parameters if q.name == "dx")
+    assert (dx.lower, dx.upper) == (-96.0, 96.0) and 48.0 in dx.scan and -48.0 in dx.scan
+    assert EFFECT["imu_lever_arm"].parameters[0].upper == 15.0  # no vessel: the old range

@@ -145,17 +145,40 @@ def _sensor_channels(model, sensor: str, kinds) -> list[int]:
             if specs[name].sensor == sensor and specs[name].kind in kinds]
 
 
+def hull_extent(vessel) -> tuple[float, float] | None:
+    """Length and beam [m] of the hull: the vessel's own (a built hull), else the box with the waterplane area and
+    second moments of the database's middle draft (A = C33/ρg, I = C44 or C55/ρg − V z_b, L = √(12 I_L/A)); None
+    when the database cannot give them (a WAMIT hull: z_b unknown)."""
+    if vessel.length and vessel.beam:
+        return float(vessel.length), float(vessel.beam)
+    db = vessel.db
+    k = len(db.drafts) // 2
+    c = db.buoyancy_stiffness[k] / (db.rho * db.g)
+    z_b = float(db.center_of_buoyancy[k, 2])
+    area = float(c[2, 2])
+    i_t, i_l = float(c[3, 3]) - db.disp_volume[k] * z_b, float(c[4, 4]) - db.disp_volume[k] * z_b
+    if not (np.isfinite(z_b) and area > 0 and i_t > 0 and i_l > 0):
+        return None
+    return float(np.sqrt(12 * i_l / area)), float(np.sqrt(12 * i_t / area))
+
+
 class ImuLeverArm(Effect):
     name = "imu_lever_arm"
     signature = ("the IMU is not where the vessel YAML puts it: its accelerations misfit, growing with ω² and "
                  "with the rotations, while angles and rates fit")
-    parameters = (EffectParameter("dx", "m", 0.0, -15.0, 15.0), EffectParameter("dy", "m", 0.0, -15.0, 15.0),
-                  EffectParameter("dz", "m", 0.0, -15.0, 15.0))
     kinds = ("displacement", "velocity", "acceleration", "specific_force")
     order = {"displacement": 0, "velocity": 1, "acceleration": 2, "specific_force": 2}
 
-    def __init__(self, sensor: str = "imu"):
+    def __init__(self, sensor: str = "imu", extent: tuple[float, float] | None = None):
+        """`extent` (length, beam) [m]: the YAML point and the true one both lie on the hull, so the error reaches
+        ± a length and ± a beam; the commonest mistake, a reference at the aft perpendicular instead of midship,
+        is half a length, so dx also starts from ± L/2. Without it, ± 15 m."""
         self.sensor = sensor
+        length, beam = extent if extent is not None else (15.0, 15.0)
+        self.parameters = (
+            EffectParameter("dx", "m", 0.0, -length, length,
+                            scan=(-0.5 * length, 0.0, 0.5 * length) if extent is not None else ()),
+            EffectParameter("dy", "m", 0.0, -beam, beam), EffectParameter("dz", "m", 0.0, -15.0, 15.0))
 
     def applicable(self, vessel, channels):
         specs = {c.name: c for c in vessel.spec.channels}
@@ -251,11 +274,12 @@ def _direction_weights(beta_deg: np.ndarray, grid_deg: np.ndarray) -> np.ndarray
     return _long_crested_weights(grid, np.argsort(grid), step, np.radians(np.asarray(beta_deg, float)), True) * step
 
 
-def library(names=None, moonpool_position=(0.0, 0.0), imu_sensor: str = "imu") -> list[Effect]:
-    """The candidate effects by name (all by default)."""
+def library(names=None, moonpool_position=(0.0, 0.0), imu_sensor: str = "imu", vessel=None) -> list[Effect]:
+    """The candidate effects by name (all by default); with `vessel`, ranges from its hull (`hull_extent`)."""
+    extent = hull_extent(vessel) if vessel is not None else None
     every = {e.name: e for e in (QuadraticRollDamping(), Moonpool(*moonpool_position), AntiRollTank(),
-                                 ImuLeverArm(imu_sensor), ImuMisalignment(imu_sensor), HsBias(), MissingSwell(),
-                                 WaveSpreading())}
+                                 ImuLeverArm(imu_sensor, extent), ImuMisalignment(imu_sensor), HsBias(),
+                                 MissingSwell(), WaveSpreading())}
     if names is None:
         return list(every.values())
     unknown = [n for n in names if n not in every]

@@ -203,7 +203,7 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     if missing:
         raise UserError(str(run.path), "diagnose.channels", f"not among the filtered channels: {', '.join(missing)}")
     try:
-        effects = library(settings.effects, moonpool_position=settings.moonpool_position)
+        effects = library(settings.effects, moonpool_position=settings.moonpool_position, vessel=vessel)
     except KeyError as err:
         raise UserError(str(run.path), "diagnose.effects", f"unknown effect(s): {err.args[0]}") from None
     data = window_set(run, vessel, channels)
