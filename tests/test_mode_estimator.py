@@ -109,3 +109,21 @@ def test_a_hindcast_tp_error_shared_by_the_windows_does_not_average_down():
     half = 0.5 * (shared["ci_high"] - shared["ci_low"])
     assert half == pytest.approx(np.hypot(0.5 * (independent["ci_high"] - independent["ci_low"]), 1.96 * 0.01))
     assert half > 1.96 * 0.01  # four windows, still the whole of one window's Tp term
+
+
+def test_the_loading_spread_moves_the_mass_for_a_displacement_prior_and_stays_in_the_database():
+    """A displacement prior [m³] moves the mass by ρ·σ; ±1σ that would leave the database's drafts stops at them."""
+    from types import SimpleNamespace
+
+    from seatune.io.vessel_yaml import PriorSpec
+
+    model = open_vessel(ROOT / "configs" / "vessels" / "sample_osv.yaml")
+    db, base = model.db, model.base_loading
+    wide = SimpleNamespace(db=db, spec=SimpleNamespace(priors={"displacement": PriorSpec(std=1.0e4)}))
+    spread = ident.loading_spread(wide, base)
+    assert spread.mass.tolist() == pytest.approx([db.rho * db.disp_volume[-1], db.rho * db.disp_volume[0]])
+    narrow = SimpleNamespace(db=db, spec=SimpleNamespace(priors={"displacement": PriorSpec(std=100.0),
+                                                                  "r44": PriorSpec(std=0.5)}))
+    spread = ident.loading_spread(narrow, base, known=["r44"])
+    assert len(spread) == 2 and spread.mass.tolist() == pytest.approx(base.mass[0] + db.rho * np.array([100, -100]))
+    assert ident.loading_spread(narrow, base, known=["displacement", "r44"]) is None

@@ -413,18 +413,25 @@ def with_sea_spread(rows: list[dict], model, per_window: list[dict], prior_omega
 
 
 def loading_spread(model, center, known=()):
-    """`center` moved by +1σ and −1σ (clipped to the bounds) of each vessel prior not in `known`, in pairs: a
-    Loading of 2n rows, or None without such priors."""
+    """`center` moved by +1σ and −1σ (clipped to the bounds, and the mass to the database's drafts) of each vessel
+    prior not in `known`, in pairs: a Loading of 2n rows, or None without such priors."""
     from seatune.physics.loading import PARAMETERS, Loading
 
-    names = [n for n in model.spec.priors if n not in known]
-    if not names:
+    rho = model.db.rho
+    known = {"mass" if k == "displacement" else k for k in known}
+    steps = {}  # parameter → (std, lower, upper) in the Loading's units (a displacement prior moves the mass)
+    for name, p in model.spec.priors.items():
+        scale, name = (rho, "mass") if name == "displacement" else (1.0, name)
+        lo, hi = (scale * b for b in p.bounds) if p.bounds is not None else (-np.inf, np.inf)
+        if name == "mass":  # within the database's drafts
+            lo, hi = max(lo, rho * model.db.disp_volume[0]), min(hi, rho * model.db.disp_volume[-1])
+        if name not in known:
+            steps[name] = (scale * p.std, lo, hi)
+    if not steps:
         return None
-    values = {n: np.repeat(getattr(center, n), 2 * len(names)) for n in names}
-    for j, n in enumerate(names):
-        p = model.spec.priors[n]
-        lo, hi = p.bounds if p.bounds is not None else (-np.inf, np.inf)
-        values[n][2 * j: 2 * j + 2] = np.clip(values[n][2 * j] + np.array([1.0, -1.0]) * p.std, lo, hi)
+    values = {n: np.repeat(getattr(center, n), 2 * len(steps)) for n in steps}
+    for j, (n, (std, lo, hi)) in enumerate(steps.items()):
+        values[n][2 * j: 2 * j + 2] = np.clip(values[n][2 * j] + np.array([1.0, -1.0]) * std, lo, hi)
     base = {p: getattr(center, p) for p in PARAMETERS}
     return Loading(**(base | values))
 
