@@ -118,8 +118,12 @@ def test_ctrl_c_exits_130_with_one_line(tmp_path):
     for log in run["logs"]:
         log["path"] = str((base / log["path"]).resolve())
     (tmp_path / "run.yaml").write_text(yaml.safe_dump(run))
+    def as_from_a_shell():  # SIGINT neither ignored nor blocked, whatever this test worker passes on to a child
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
     proc = subprocess.Popen([sys.executable, "-m", "seatune", "run", str(tmp_path / "run.yaml")],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=as_from_a_shell)
     deadline = time.monotonic() + 60
     while not (tmp_path / "run").exists() and time.monotonic() < deadline:  # inside the ingest stage
         time.sleep(0.05)
