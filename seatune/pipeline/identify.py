@@ -406,8 +406,7 @@ def with_sea_spread(rows: list[dict], model, per_window: list[dict], prior_omega
     for r in rows:
         if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof" and np.isfinite(r["omega_n"]):
             sea_std = max(abs(v - r["omega_n"]) for v in moved.get(r["dof"], [r["omega_n"]])) / np.sqrt(2.0)
-            half = np.hypot(0.5 * (r["ci_high"] - r["ci_low"]), 1.96 * sea_std)
-            r = r | {"ci_low": r["omega_n"] - half, "ci_high": r["omega_n"] + half, "sea_std": sea_std}
+            r = _widened(r, "sea_std", sea_std)
         out.append(r)
     return out
 
@@ -449,10 +448,13 @@ def _with_loading_std(combined: dict, fits: list[dict], dof: str, prior: float) 
                 for r, b in zip(fits, by, strict=True)]
         moved.append(_combine(rows, dof, combined["method"], prior)["omega_n"])
     moved = np.asarray(moved).reshape(-1, 2)
-    loading_std = float(np.sqrt(np.sum((0.5 * (moved[:, 0] - moved[:, 1])) ** 2)))
-    half = np.hypot(0.5 * (combined["ci_high"] - combined["ci_low"]), 1.96 * loading_std)
-    return combined | {"ci_low": combined["omega_n"] - half, "ci_high": combined["omega_n"] + half,
-                       "loading_std": loading_std}
+    return _widened(combined, "loading_std", float(np.sqrt(np.sum((0.5 * (moved[:, 0] - moved[:, 1])) ** 2))))
+
+
+def _widened(row: dict, name: str, std: float) -> dict:
+    """`row` with `name` = `std` [rad/s], an error its windows share, added to its 95 % interval in quadrature."""
+    half = np.hypot(0.5 * (row["ci_high"] - row["ci_low"]), 1.96 * std)
+    return row | {"ci_low": row["omega_n"] - half, "ci_high": row["omega_n"] + half, name: std}
 
 
 def _sea_name(w: dict, dof: str) -> str | None:

@@ -264,6 +264,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
     fs = run.spec.ingest.rate_hz
     keep = [k for k, c in enumerate(channels) if not _shows_roll(vessel.channel(c))]
     roll_free = settings.roll_free and 2 <= len(keep) < len(channels)
+    without_roll = [channels[k] for k in keep]
     rows, rows_roll = [], []
     for row in windows[windows["accepted"]].sort_values("start").itertuples():
         part = motions[
@@ -285,10 +286,9 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
         est = estimate_window(vessel, design, channels, x, fs, priors, settings, row.heading_deg, settings.segment_s)
         rows += partition_rows(str(row.window_id), est, row.heading_deg, channels, priors)
         if roll_free:
-            sub = [channels[k] for k in keep]
-            est = estimate_window(vessel, design, sub, x[keep], fs, priors, settings, row.heading_deg,
+            est = estimate_window(vessel, design, without_roll, x[keep], fs, priors, settings, row.heading_deg,
                                   settings.segment_s)
-            rows_roll += partition_rows(str(row.window_id), est, row.heading_deg, sub, priors)
+            rows_roll += partition_rows(str(row.window_id), est, row.heading_deg, without_roll, priors)
     table = pd.DataFrame(rows, columns=list(SEA_UNITS))
     if settings.roll_free:  # empty when too few channels remain without roll: identify then takes the full fit
         write_table(pd.DataFrame(rows_roll, columns=list(SEA_UNITS)), out_roll, SEA_UNITS, {"fingerprint": fp})
