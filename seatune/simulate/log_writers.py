@@ -197,8 +197,8 @@ def _col(table: pd.DataFrame, name: str, default: float = np.nan) -> list:
     return [default] * len(table)
 
 
-def _covariances(table: pd.DataFrame, name: str, diag: tuple[int, ...] = (0, 4, 8)) -> list[np.ndarray] | None:
-    """Per-row 3×3 row-major covariance from a scalar variance column (negative → "not provided")."""
+def _covariance_matrix(table: pd.DataFrame, name: str, diag: tuple[int, ...] = (0, 4, 8)) -> np.ndarray | None:
+    """(n, 9) row-major 3×3 covariances from a scalar variance column (negative → "not provided")."""
     if name not in table.columns:
         return None
     var = table[name].to_numpy(dtype=np.float64)
@@ -207,7 +207,13 @@ def _covariances(table: pd.DataFrame, name: str, diag: tuple[int, ...] = (0, 4, 
     absent = var < 0
     cov[absent] = 0.0
     cov[absent, 0] = -1.0
-    return list(cov)
+    return cov
+
+
+def _covariances(table: pd.DataFrame, name: str, diag: tuple[int, ...] = (0, 4, 8)) -> list[np.ndarray] | None:
+    """Per-row 3×3 row-major covariance from a scalar variance column (negative → "not provided")."""
+    cov = _covariance_matrix(table, name, diag)
+    return None if cov is None else list(cov)
 
 
 def _headers(ts, p: _Prepared, ros1: bool, first: int = 0) -> list:
@@ -230,25 +236,16 @@ def _build_imu(ts, t: pd.DataFrame, headers: list) -> Iterator:
     Imu, Q, V3 = (
         ts.types[k] for k in ("sensor_msgs/msg/Imu", "geometry_msgs/msg/Quaternion", "geometry_msgs/msg/Vector3")
     )
-    n = len(t)
-    zero = np.zeros(9)
-    has_q = "qw" in t.columns
-    q_default = zero.copy()
-    q_default[0] = -1.0  # REP / sensor_msgs: orientation not provided
-    cq = _covariances(t, "var_q") or [zero if has_q else q_default] * n
-    cw = _covariances(t, "var_w") or [zero] * n
-    ca = _covariances(t, "var_a") or [zero] * n
-    qx, qy, qz, qw = (_col(t, c, 0.0) for c in _QUAT)
-    wx, wy, wz, ax, ay, az = (_col(t, c) for c in ("wx", "wy", "wz", "ax", "ay", "az"))
-    for i, h in enumerate(headers):
+    values = _imu_values(t)
+    for h, v, f in zip(headers, values, values.tolist(), strict=True):
         yield Imu(
             header=h,
-            orientation=Q(x=qx[i], y=qy[i], z=qz[i], w=qw[i]),
-            orientation_covariance=cq[i],
-            angular_velocity=V3(x=wx[i], y=wy[i], z=wz[i]),
-            angular_velocity_covariance=cw[i],
-            linear_acceleration=V3(x=ax[i], y=ay[i], z=az[i]),
-            linear_acceleration_covariance=ca[i],
+            orientation=Q(x=f[0], y=f[1], z=f[2], w=f[3]),
+            orientation_covariance=v[4:13],
+            angular_velocity=V3(x=f[13], y=f[14], z=f[15]),
+            angular_velocity_covariance=v[16:25],
+            linear_acceleration=V3(x=f[25], y=f[26], z=f[27]),
+            linear_acceleration_covariance=v[28:37],
         )
 
 
@@ -396,22 +393,18 @@ class _ImuRows:
 
 
 def _imu_values(t: pd.DataFrame) -> np.ndarray:
-    """The 37 float64 fields of each row's Imu message, as `_build_imu` fills them: (n, 37)."""
+    """The 37 float64 fields of each row's Imu message in message order (orientation, its covariance, angular
+    velocity, its covariance, linear acceleration, its covariance): (n, 37). Both writer paths read them here."""
     n = len(t)
 
     def column(name, default=np.nan):
         return t[name].to_numpy(dtype=np.float64) if name in t.columns else np.full(n, default)
 
-    def covariance(name, not_provided):
-        c = np.zeros((n, 9))
-        if name not in t.columns:
+    def covariance(name, not_provided):  # absent column: all zeros (unknown), or "not provided"
+        c = _covariance_matrix(t, name)
+        if c is None:
+            c = np.zeros((n, 9))
             c[:, 0] = -1.0 if not_provided else 0.0
-            return c
-        var = t[name].to_numpy(dtype=np.float64)
-        c[:, [0, 4, 8]] = var[:, None]
-        absent = var < 0
-        c[absent] = 0.0
-        c[absent, 0] = -1.0
         return c
 
     q = np.column_stack([column(c, 0.0) for c in _QUAT])
