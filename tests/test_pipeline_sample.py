@@ -1,6 +1,5 @@
 """ingest → windows → filter on the committed sample_logs/, through the CLI, against truth.yaml."""
 
-import json
 import shutil
 import subprocess
 import sys
@@ -11,6 +10,7 @@ import pyarrow.parquet as pq
 import pytest
 import yaml
 
+from seatune.io.parquet import table_metadata
 from tests.conftest import ROOT
 
 SAMPLE = ROOT / "sample_logs"
@@ -77,7 +77,7 @@ def test_motion_table_and_repairs(run_dir):
     assert np.all(np.diff(m["time"].astype("int64")) > 0)
     assert m["record"].nunique() >= 2  # the 6 s logger outage splits the record (max_gap_s 2)
     truth = yaml.safe_load((SAMPLE / "truth.yaml").read_text())
-    counts = json.loads(meta.metadata[b"seatune"])["counts"]  # what the simulator broke, ingest repaired
+    counts = table_metadata(out / "motions.parquet")["counts"]  # what the simulator broke, ingest repaired
     assert counts["duplicates_removed"] == len(truth["defects"]["duplicate_stamps"])
     assert counts["non_monotonic_repaired"] == len(truth["defects"]["out_of_order"])
     assert counts["gaps_split"] == len(truth["defects"]["gaps"])

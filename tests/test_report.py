@@ -17,6 +17,8 @@ import pyarrow.parquet as pq
 import pytest
 import yaml
 
+from seatune.io.motion_table import MotionTable
+from seatune.io.parquet import table_metadata
 from seatune.report.golden import compare, read_summary
 from tests.conftest import ROOT
 from tests.test_pipeline_sample import run_cli
@@ -74,7 +76,7 @@ def test_page_is_self_contained_and_its_plots_decode(reported):
         assert im.format == "PNG" and im.size[0] >= 400 and im.size[1] >= 200
         assert np.asarray(im.convert("L"), dtype=float).std() > 5  # something drawn
     # every ingest defect count is on the page (DESIGN §6: counted in the report)
-    counts = json.loads(pq.read_schema(out / "motions.parquet").metadata[b"seatune"])["counts"]
+    counts = table_metadata(out / "motions.parquet")["counts"]
     for key, n in counts.items():
         if key != "records":
             assert re.search(rf"<td>{key.replace('_', ' ')}</td><td class=\"num\">{n:,}</td>", page), key
@@ -112,7 +114,7 @@ def test_tuned_model_path_reproduces_the_prior_model_of_identify(reported):
     run = Run(path)
     vessel = open_vessel(run.vessel_path)
     raos = pd.read_parquet(out / "raos.parquet")
-    motions = pd.read_parquet(out / "motions.parquet", columns=["time", "lat", "lon"])
+    motions = MotionTable(out / "motions.parquet")
     got = tuned_model_raos(run, vessel, vessel.base_loading, pd.read_parquet(out / "windows.parquet"), motions, raos)
     agg = raos[raos["scope"] == "aggregate"].merge(got, on=["window_id", "channel", "omega"], how="left")
     assert len(agg) and agg["model_tuned"].notna().all()
@@ -327,8 +329,7 @@ def test_response_spectra_integrate_to_the_sigma_of_filter_and_tune(reported):
     hist = pd.read_parquet(out / "tuning_history.parquet")
     loadings = {"prior": vessel.base_loading, "tuned": vessel.loading(**posterior_means(hist))}
     spectra = model_spectra(run, vessel, loadings, pd.read_parquet(out / "windows.parquet"),
-                            pd.read_parquet(out / "motions.parquet", columns=["time", "lat", "lon"]),
-                            pd.read_parquet(out / "window_spectra.parquet"))
+                            MotionTable(out / "motions.parquet"), pd.read_parquet(out / "window_spectra.parquet"))
     stats = pd.read_parquet(out / "window_stats.parquet").set_index(["window_id", "channel"])
     val = pd.read_parquet(out / "validation.parquet")
     val = val.assign(key=val["window_id"].astype(str) + "/" + val["measurement"]).set_index("key")

@@ -11,6 +11,7 @@ and indices); a float column needs its unit spelled out.
 from __future__ import annotations
 
 import json
+from contextlib import contextmanager
 from pathlib import Path
 
 import pandas as pd
@@ -54,6 +55,66 @@ def write_table(df: pd.DataFrame, path: str | Path, units: dict[str, str], metad
     return path
 
 
+class TableWriter:
+    """Row groups appended one DataFrame at a time (the same columns each time); see :func:`table_writer`."""
+
+    def __init__(self, path: Path, units: dict[str, str]):
+        self.path, self.units, self.rows = path, units, 0
+        self.metadata: dict = {}
+        self._writer: pq.ParquetWriter | None = None
+        self._schema: pa.Schema | None = None
+
+    def write(self, df: pd.DataFrame) -> None:
+        if self._schema is None:
+            missing = [c for c in df.columns if c not in self.units]
+            if missing:
+                raise ValueError(f"no unit given for columns {missing}")
+            table = pa.Table.from_pandas(df, preserve_index=False)
+            self._schema = pa.schema([f.with_metadata(field_metadata(f, self.units[f.name])) for f in table.schema],
+                                     metadata={k: v for k, v in (table.schema.metadata or {}).items()
+                                               if k != b"pandas"})
+            self._writer = pq.ParquetWriter(self.path, self._schema)
+        self._writer.write_table(pa.Table.from_pandas(df, schema=self._schema, preserve_index=False))
+        self.rows += len(df)
+
+    def close(self) -> None:
+        if self._writer is None:
+            raise ValueError(f"{self.path}: no rows written")
+        self._writer.add_key_value_metadata({"seatune": json.dumps({"version": seatune.__version__,
+                                                                     **self.metadata})})
+        self._writer.close()
+
+
+@contextmanager
+def table_writer(path: str | Path, units: dict[str, str]):
+    """Write a table in pieces, atomically: ``with table_writer(p, units) as w: w.write(df); w.metadata = {...}``.
+    Each `write` is one row group, so a reader can take a time range without the rest (:func:`read_rows`)."""
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        w = TableWriter(tmp, units)
+        try:
+            yield w
+        except BaseException:
+            if w._writer is not None:
+                w._writer.close()
+            raise
+        w.close()
+
+
+def read_rows(path: str | Path, start=None, end=None, columns=None, time: str = "time") -> pd.DataFrame:
+    """Rows with `start` ≤ time ≤ `end` (either may be None), reading only the row groups that hold them."""
+    filters = ([(time, ">=", pd.Timestamp(start))] if start is not None else []) + (
+        [(time, "<=", pd.Timestamp(end))] if end is not None else [])
+    return pq.read_table(path, columns=columns, filters=filters or None).to_pandas()
+
+
+def iter_row_groups(path: str | Path, columns=None):
+    """The table one row group at a time (DataFrames)."""
+    f = pq.ParquetFile(path)
+    for k in range(f.num_row_groups):
+        yield f.read_row_group(k, columns=columns).to_pandas()
+
+
 def column_units(path: str | Path) -> dict[str, str]:
     schema = pq.read_schema(path)
     return {f.name: (f.metadata or {}).get(b"unit", b"").decode() for f in schema}
@@ -65,4 +126,6 @@ def column_descriptions(path: str | Path) -> dict[str, str]:
 
 
 def table_metadata(path: str | Path) -> dict:
-    return json.loads(pq.read_schema(path).metadata[b"seatune"])
+    """The artefact's provenance (version, fingerprint, …): the file's key-value metadata, where a table written in
+    pieces keeps it too (its Arrow schema was fixed before the first piece)."""
+    return json.loads(pq.ParquetFile(path).metadata.metadata[b"seatune"])

@@ -32,7 +32,7 @@ def recorded_fingerprint(artefact: Path) -> str | None:
     if not artefact.exists():
         return None
     try:
-        meta = pq.read_schema(artefact).metadata or {}
+        meta = pq.ParquetFile(artefact).metadata.metadata or {}  # file key-value: set by table_writer too
         return json.loads(meta.get(b"seatune", b"{}")).get("fingerprint")
     except (OSError, ValueError):
         return None  # unreadable: treat as stale

@@ -59,12 +59,13 @@ def window_set(run, vessel, channels):
     """The WindowSet of the run's accepted windows with the tune stage's roles."""
     from seatune.diagnosis.model import WindowSet, analysis_mask, welch_grid
     from seatune.io.hindcast_readers import read_hindcast
+    from seatune.io.motion_table import MotionTable
     from seatune.pipeline.identify import mean_wave_direction, window_wave_spectrum
 
     windows = pd.read_parquet(run.artefact("windows.parquet"))
     stats = pd.read_parquet(run.artefact("window_stats.parquet"))
     spectra = pd.read_parquet(run.artefact("window_spectra.parquet"))
-    motions = pd.read_parquet(run.artefact("motions.parquet"), columns=["time", "lat", "lon"])
+    motions = MotionTable(run.artefact("motions.parquet"))
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
     from seatune.pipeline.sea import read_sea_states
 
@@ -94,8 +95,8 @@ def window_set(run, vessel, channels):
             m.append(np.interp(bins, part.index.to_numpy(), part["S"].to_numpy()))
             nu.append(float(part["dof"].iloc[0]))
         mid = row.start + (row.end - row.start) / 2
-        j = int(np.clip(motions["time"].searchsorted(mid), 0, len(motions) - 1))
-        S2d, dirs, _ = window_wave_spectrum(hc, row, motions["lat"].iloc[j], motions["lon"].iloc[j], fine, sea)
+        at = motions.row_at(mid, ["lat", "lon"])  # the grid row at mid-window
+        S2d, dirs, _ = window_wave_spectrum(hc, row, at["lat"], at["lon"], fine, sea)
         ids.append(str(row.window_id))
         roles.append("holdout" if k and (i % k == k - 1) else "train")
         measured.append(m)

@@ -35,6 +35,7 @@ def window_statistics(x: np.ndarray, fs: float, settings) -> dict:
 
 
 def filter_stage(run, model, echo=print, force: bool = False) -> dict:
+    from seatune.io.motion_table import MotionTable
     from seatune.io.parquet import write_table
     from seatune.io.rundir import fingerprint, is_fresh
     from seatune.physics.adaptive_filter import welch_spectrum
@@ -48,7 +49,7 @@ def filter_stage(run, model, echo=print, force: bool = False) -> dict:
     out_hz = run.artefact("window_spectra_hz.parquet")
     if not force and is_fresh([out_s, out_p, *([out_hz] if per_hz else [])], fp):
         return {"skipped": True}
-    motions, windows = pd.read_parquet(src[0]), pd.read_parquet(src[1])
+    motions, windows = MotionTable(src[0]), pd.read_parquet(src[1])
     fs = run.spec.ingest.rate_hz
     kinds = {c.name: c.kind for c in model.channels}
     names = settings.channels or [c for c in kinds if c in motions.columns]
@@ -58,7 +59,7 @@ def filter_stage(run, model, echo=print, force: bool = False) -> dict:
                                                           f"({[c for c in kinds if c in motions.columns]})")
     stats, spectra, empty = [], [], []
     for w in windows[windows["accepted"]].itertuples():
-        part = motions[(motions["time"] >= w.start) & (motions["time"] <= w.end)]
+        part = motions.window(w.start, w.end, names)
         if int(round(settings.welch_segment_s * fs)) > len(part):  # welch_spectrum's own condition
             raise UserError(str(run.path), "filter.welch_segment_s", f"too little data: window {w.window_id} has "
                             f"{len(part) / fs:.0f} s of samples, less than one Welch segment of "

@@ -583,6 +583,7 @@ def load_draft(model, loading) -> float:
 
 def identify_stage(run, model, echo=print, force: bool = False) -> dict:
     from seatune.io.hindcast_readers import read_hindcast
+    from seatune.io.motion_table import MotionTable
     from seatune.io.parquet import write_table
     from seatune.io.rundir import fingerprint, is_fresh
     from seatune.physics.response import natural_frequencies
@@ -597,22 +598,21 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
     if not force and is_fresh([out_r, out_n], fp):
         return {"skipped": True}
     windows, spectra = pd.read_parquet(src[0]), pd.read_parquet(src[1])
-    motions = pd.read_parquet(src[2])
+    motions = MotionTable(src[2])
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
     sea, sea_roll = read_sea_states(run), read_sea_states(run, roll_free=True)
     prior = model.base_loading
     draft = float(load_draft(model, prior))
     modes = mode_channels(model, set(spectra["channel"].unique()))
     parts, per_window = [], []
-    placed = np.flatnonzero(np.isfinite(motions["lat"].to_numpy(float)) & np.isfinite(motions["lon"].to_numpy(float)))
     for row in windows[windows["accepted"]].itertuples():
         mid = row.start + (row.end - row.start) / 2
-        k = placed[int(np.clip(motions["time"].iloc[placed].searchsorted(mid), 0, len(placed) - 1))]  # a fix
+        lat, lon = motions.fix_at(mid)  # the first fix from mid-window on
         spec_w = spectra[spectra["window_id"] == row.window_id]
         if spec_w.empty:  # filter left every channel of this window out (no finite sample)
             continue
         omega = spec_w[spec_w["channel"] == spec_w["channel"].iloc[0]]["omega"].to_numpy()
-        wave, dirs, source = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], omega, sea)
+        wave, dirs, source = window_wave_spectrum(hc, row, lat, lon, omega, sea)
         unc = window_uncertainty(sea, row.window_id, uncertainty, row)
         estimates, rows, beta, window_flag = identify_window(model, prior, row, wave, dirs, source, spec_w, settings,
                                                              unc)
@@ -620,20 +620,20 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
         s_wave = omnidirectional(wave, dirs)
         seas = {source: {"wave": wave, "dirs": dirs, "s_wave": s_wave}}  # every defensible sea of the window
         if source == "estimated from motions":
-            hw, hd, hs_name = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], omega)
+            hw, hd, hs_name = window_wave_spectrum(hc, row, lat, lon, omega)
             seas[hs_name] = {"wave": hw, "dirs": hd, "s_wave": omnidirectional(hw, hd)}
         by_mode = {}  # a mode's own sea: roll against the sea fitted without the roll channels
         found = estimated_wave_spectrum(sea_roll, str(row.window_id), omega) if sea_roll is not None else None
         if found is not None:
             by_mode["Roll"] = "estimated without the roll channels"
             seas[by_mode["Roll"]] = {"wave": found[0], "dirs": found[1], "s_wave": omnidirectional(found[0], found[1])}
-        in_window = (motions["time"] >= row.start) & (motions["time"] <= row.end) & (motions["record"] == row.record)
         per_window.append({"window_id": str(row.window_id), "estimates": estimates, "s_wave": s_wave, "omega": omega,
                            "wave": wave, "dirs": dirs, "heading": row.heading_deg, "draft": draft, "seas": seas,
                            "sea_name": source, "sea_by_mode": by_mode,
                            "tp_rel_std": unc.tp_std_s / unc.tp,
                            "low_confidence": window_flag,
-                           "modes": mode_spectra(model, modes, spec_w, motions[in_window],
+                           "modes": mode_spectra(model, modes, spec_w,
+                                                 motions.window(row.start, row.end, record=row.record),
                                                  run.spec.filter.welch_segment_s),
                            "sector": sector_of(beta, settings.heading_sector_deg),
                            "hs_bin": float(np.floor(unc.hs / settings.hs_bin_m) * settings.hs_bin_m)})

@@ -28,10 +28,15 @@ __all__ = [
     "UNITS",
     "IngestReport",
     "UnitFinding",
+    "LogSources",
     "build_motions",
+    "check_named_topics",
     "check_units",
     "gnss_motions",
     "imu_motions",
+    "log_sources",
+    "no_imu_error",
+    "overlap_counts",
     "mounting_warnings",
     "repair_time",
     "resample",
@@ -364,7 +369,8 @@ def _interp(t: np.ndarray, v: np.ndarray, grid: np.ndarray, thr: float, wrap: tu
     return out
 
 
-def resample(tables: Sequence[pd.DataFrame], rate_hz: float, max_gap_s: float) -> tuple[pd.DataFrame, dict]:
+def resample(tables: Sequence[pd.DataFrame], rate_hz: float, max_gap_s: float,
+             keep: tuple[int, int] | None = None) -> tuple[pd.DataFrame, dict]:
     """Join sources on one uniform UTC grid per contiguous record.
 
     Parameters
@@ -381,6 +387,9 @@ def resample(tables: Sequence[pd.DataFrame], rate_hz: float, max_gap_s: float) -
         at most ``max(max_gap_s, 1.5 × its own median spacing)`` apart — so a 1 Hz GNSS survives a 0.5 s limit;
         elsewhere its columns are NaN (masked). Where *every* source pauses for more than `max_gap_s`, the
         record ends and a new one starts (``record`` = 0, 1, …): nothing is invented across a logging gap.
+    keep : (start, end) in ns since the epoch, optional
+        Only the grid instants start ≤ t < end, counted over those alone: one piece of a long log, given the
+        sources a margin wider (longer than their gaps) so the piece equals that stretch of the whole table.
 
     Returns
     -------
@@ -411,7 +420,12 @@ def resample(tables: Sequence[pd.DataFrame], rate_hz: float, max_gap_s: float) -
     sources = []
     for cols, dfs in groups.items():
         df = pd.concat(dfs, ignore_index=True) if len(dfs) > 1 else dfs[0]
-        df, c = repair_time(df)
+        if keep is not None:  # the repairs of this piece's own stretch, not of the margins
+            core = df["time"].astype("int64").to_numpy()
+            _, c = repair_time(df[(core >= keep[0]) & (core < keep[1])])
+            df, _ = repair_time(df)
+        else:
+            df, c = repair_time(df)
         counts["duplicates_removed"] += c["duplicates_removed"]
         counts["non_monotonic_repaired"] += c["non_monotonic_repaired"]
         ns = df["time"].astype("int64").to_numpy()
@@ -443,6 +457,8 @@ def resample(tables: Sequence[pd.DataFrame], rate_hz: float, max_gap_s: float) -
     for s, e in records:
         first = -(-int(s) // dt) * dt
         g = np.arange(first, int(e) + 1, dt, dtype=np.int64)
+        if keep is not None:
+            g = g[(g >= keep[0]) & (g < keep[1])]
         if len(g):
             grids.append(g)
     counts["records"] = len(grids)
@@ -749,6 +765,107 @@ def _check_named_topics(logs: Sequence[LogContents], named: dict[str, str | None
             raise UserError(files, place, f"topic {topic} not in the log(s); topics present: {_topics_present(logs)}")
 
 
+@dataclass
+class LogSources:
+    """One log's contribution to the motion table, before resampling: its IMU motions, GNSS motions and point
+    sensors (name → time and vertical component), each with a ``time`` column."""
+
+    imu: pd.DataFrame | None = None
+    gnss: pd.DataFrame | None = None
+    points: dict[str, pd.DataFrame] = field(default_factory=dict)
+
+    def tables(self) -> list[pd.DataFrame]:
+        return [t for t in (self.imu, self.gnss) if t is not None] + list(self.points.values())
+
+
+def log_sources(log: LogContents, report: IngestReport, *, frame: str = "auto", imu_topic: str | None = None,
+                fix_topic: str | None = None, vel_topic: str | None = None, mounting: Rotation | None = None,
+                sensor: str = "imu") -> LogSources:
+    """The IMU / NavSatFix / velocity topics of one log picked (or named), their time repaired and checked (1990
+    to tomorrow), turned into motions (the IMU rotated into the body by `mounting` — the vessel YAML's
+    ``sensors.<sensor>.rotation`` — or else by the log's /tf_static) and unit-checked (:func:`check_units`); what
+    was repaired or found goes into `report`."""
+    out = LogSources()
+    table_log = log.format in ("csv", "parquet")
+    for vec in log.of_type(VEC3):  # point sensors (e.g. heave at a point): the vertical component
+        t, c = repair_time(vec)
+        report.add(c)
+        _check_epoch(t, log)
+        name = vec.topic.strip("/").replace("/", "_")
+        out.points[name] = t.table[["time"]].assign(**{name: t.table["z"].to_numpy()})
+    report.warnings += log.warnings
+    if log.truncated:
+        report.add({"logs_cut_short": 1})
+
+    def named(topic, msgtype):
+        return _pick(log, msgtype) if topic is None else log.topics.get(topic)
+
+    imu = named(imu_topic, IMU)
+    others = [t.topic for t in log.of_type(IMU) if imu is not None and t.topic != imu.topic]
+    if others:
+        report.warnings.append(f"{log.path.name}: IMU topic {imu.topic} used; not used: {', '.join(others)}")
+    if imu is not None:
+        imu, c = repair_time(imu)
+        report.add(c)
+        _check_epoch(imu, log)
+        mount, where = mounting, f"vessel YAML sensors.{sensor}.rotation"
+        tf = tf_mounting(log.static_transforms, imu.frame_id) if log.static_transforms else None
+        if tf is not None and mounting is not None:
+            where += f" (wins over /tf_static {' → '.join(tf[1])}: {_rpy(tf[0])})"
+        elif tf is not None:
+            mount, where = tf[0], f"/tf_static {' → '.join(tf[1])}"
+        if mount is not None:
+            report.notes.append(f"{log.path.name} {imu.topic}: IMU mounting {_rpy(mount)} from {where}")
+        m = imu_motions(imu, frame=frame, mounting=mount)
+        report.add({"imu_samples_without_orientation": m.attrs["no_orientation"]})
+        report.warnings += [f"{log.path.name} {imu.topic}: {w}" for w in check_units(m, imu, table=table_log)]
+        report.warnings += [f"{log.path.name} {imu.topic}: {w}" for w in mounting_warnings(m, imu, mount, sensor)]
+        out.imu = m
+    fix = named(fix_topic, FIX)
+    vel = named(vel_topic, TWIST)
+    if vel is None and vel_topic is None:
+        vel = _pick(log, ODOM)
+    if fix is not None or vel is not None:
+        if fix is not None:
+            fix, c = repair_time(fix)
+            report.add(c)
+            _check_epoch(fix, log)
+        if vel is not None:
+            vel, c = repair_time(vel)
+            report.add(c)
+            _check_epoch(vel, log)
+        g = gnss_motions(fix, vel)
+        report.add({"gnss_no_fix_removed": g.attrs["no_fix"]})
+        if vel is not None:
+            report.warnings += [f"{log.path.name} GNSS: {w}" for w in check_units(g, vel, table=table_log)]
+        out.gnss = g
+    return out
+
+
+def check_named_topics(logs: Sequence[LogContents], imu_topic=None, fix_topic=None, vel_topic=None) -> None:
+    _check_named_topics(logs, {"topics.imu": imu_topic, "topics.gnss_fix": fix_topic,
+                               "topics.gnss_vel/odometry": vel_topic})
+
+
+def no_imu_error(logs: Sequence[LogContents]) -> UserError:
+    """The error when no log has an IMU topic (the file and its topics named)."""
+    if len(logs) == 1:
+        imu_motions(logs[0])  # raises the UserError naming the file and its topics
+    names = ", ".join(str(log.path) for log in logs) or None
+    return UserError(names, None, f"no sensor_msgs/Imu topic (topics: {_topics_present(logs)})")
+
+
+def overlap_counts(counts: dict[str, int]) -> dict[str, int]:
+    """resample's counts with the repairs it made across logs named as overlaps (each log's own are counted
+    when its topics are read)."""
+    out = dict(counts)
+    for k in ("duplicates_removed", "non_monotonic_repaired"):
+        v = out.pop(k, 0)
+        if v:
+            out[f"overlap_{k}"] = v
+    return out
+
+
 def build_motions(
     logs: Sequence[LogContents],
     *,
@@ -762,81 +879,20 @@ def build_motions(
     sensor: str = "imu",
 ) -> tuple[pd.DataFrame, IngestReport]:
     """The motion table of a trial from its logs (back to back, or complementary: an MCAP with the IMU and a
-    CSV with GNSS): per log, the IMU / NavSatFix / velocity topics are picked (or named), their time repaired and
-    checked (1990 to tomorrow), turned into motions (the IMU rotated into the body by `mounting` — the vessel
-    YAML's ``sensors.<sensor>.rotation`` — or else by the log's /tf_static), unit-checked (:func:`check_units`);
-    then everything is resampled on one grid. Log warnings are carried into the report. Raises UserError when no
-    log has an IMU topic, or a named topic is in no log."""
+    CSV with GNSS): each log's sources (:func:`log_sources`) resampled on one grid. Log warnings are carried into
+    the report. Raises UserError when no log has an IMU topic, or a named topic is in no log."""
     report = IngestReport()
-    imus, gnss, points = [], [], {}
-    _check_named_topics(logs, {"topics.imu": imu_topic, "topics.gnss_fix": fix_topic,
-                               "topics.gnss_vel/odometry": vel_topic})
-    for log in logs:
-        table_log = log.format in ("csv", "parquet")
-        for vec in log.of_type(VEC3):  # point sensors (e.g. heave at a point): the vertical component
-            t, c = repair_time(vec)
-            report.add(c)
-            _check_epoch(t, log)
-            name = vec.topic.strip("/").replace("/", "_")
-            points.setdefault(name, []).append(t.table[["time"]].assign(**{name: t.table["z"].to_numpy()}))
-        report.warnings += log.warnings
-        if log.truncated:
-            report.add({"logs_cut_short": 1})
-
-        def named(topic, msgtype, log=log):
-            if topic is None:
-                return _pick(log, msgtype)
-            return log.topics.get(topic)
-
-        imu = named(imu_topic, IMU)
-        others = [t.topic for t in log.of_type(IMU) if imu is not None and t.topic != imu.topic]
-        if others:
-            report.warnings.append(f"{log.path.name}: IMU topic {imu.topic} used; not used: {', '.join(others)}")
-        if imu is not None:
-            imu, c = repair_time(imu)
-            report.add(c)
-            _check_epoch(imu, log)
-            mount, where = mounting, f"vessel YAML sensors.{sensor}.rotation"
-            tf = tf_mounting(log.static_transforms, imu.frame_id) if log.static_transforms else None
-            if tf is not None and mounting is not None:
-                where += f" (wins over /tf_static {' → '.join(tf[1])}: {_rpy(tf[0])})"
-            elif tf is not None:
-                mount, where = tf[0], f"/tf_static {' → '.join(tf[1])}"
-            if mount is not None:
-                report.notes.append(f"{log.path.name} {imu.topic}: IMU mounting {_rpy(mount)} from {where}")
-            m = imu_motions(imu, frame=frame, mounting=mount)
-            report.add({"imu_samples_without_orientation": m.attrs["no_orientation"]})
-            report.warnings += [f"{log.path.name} {imu.topic}: {w}" for w in check_units(m, imu, table=table_log)]
-            report.warnings += [f"{log.path.name} {imu.topic}: {w}" for w in mounting_warnings(m, imu, mount, sensor)]
-            imus.append(m)
-        fix = named(fix_topic, FIX)
-        vel = named(vel_topic, TWIST)
-        if vel is None and vel_topic is None:
-            vel = _pick(log, ODOM)
-        if fix is not None or vel is not None:
-            if fix is not None:
-                fix, c = repair_time(fix)
-                report.add(c)
-                _check_epoch(fix, log)
-            if vel is not None:
-                vel, c = repair_time(vel)
-                report.add(c)
-                _check_epoch(vel, log)
-            g = gnss_motions(fix, vel)
-            report.add({"gnss_no_fix_removed": g.attrs["no_fix"]})
-            if vel is not None:
-                report.warnings += [f"{log.path.name} GNSS: {w}" for w in check_units(g, vel, table=table_log)]
-            gnss.append(g)
-    if not imus:
-        if len(logs) == 1:
-            imu_motions(logs[0])  # raises the UserError naming the file and its topics
-        names = ", ".join(str(log.path) for log in logs) or None
-        raise UserError(names, None, f"no sensor_msgs/Imu topic (topics: {_topics_present(logs)})")
+    check_named_topics(logs, imu_topic, fix_topic, vel_topic)
+    sources = [log_sources(log, report, frame=frame, imu_topic=imu_topic, fix_topic=fix_topic, vel_topic=vel_topic,
+                           mounting=mounting, sensor=sensor) for log in logs]
+    if not any(s.imu is not None for s in sources):
+        raise no_imu_error(logs)
+    imus = [s.imu for s in sources if s.imu is not None]
+    gnss = [s.gnss for s in sources if s.gnss is not None]
+    points: dict[str, list[pd.DataFrame]] = {}
+    for s in sources:
+        for name, f in s.points.items():
+            points.setdefault(name, []).append(f)
     table, c = resample(imus + gnss + [f for frames in points.values() for f in frames], rate_hz, max_gap_s)
-    for k in ("duplicates_removed", "non_monotonic_repaired"):
-        if c.get(k):
-            c[f"overlap_{k}"] = c.pop(k)
-        else:
-            c.pop(k, None)
-    report.add(c)
+    report.add(overlap_counts(c))
     return table, report

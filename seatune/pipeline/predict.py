@@ -185,10 +185,12 @@ def beliefs(run, vessel, history: pd.DataFrame):
 def planned_position(run, settings) -> tuple[float, float]:
     if settings.position is not None:
         return float(settings.position[0]), float(settings.position[1])
-    motions = pd.read_parquet(run.artefact("motions.parquet"), columns=["lat", "lon"]).dropna()
-    if motions.empty:
+    from seatune.io.motion_table import MotionTable
+
+    lat, lon = MotionTable(run.artefact("motions.parquet")).last_fix()
+    if not np.isfinite(lat):
         raise UserError(str(run.path), "predict.position", "no logged position to default to: give [lat, lon]")
-    return float(motions["lat"].iloc[-1]), float(motions["lon"].iloc[-1])
+    return lat, lon
 
 
 def forecast_times(hc, settings) -> pd.DatetimeIndex:

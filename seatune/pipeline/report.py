@@ -53,10 +53,10 @@ def posterior_means(history: pd.DataFrame | None) -> dict[str, float]:
     return dict(zip(last["parameter"], last["mean"].astype(float), strict=True))
 
 
-def tuned_model_raos(run, vessel, loading, windows: pd.DataFrame, motions: pd.DataFrame,
+def tuned_model_raos(run, vessel, loading, windows: pd.DataFrame, motions,
                      raos: pd.DataFrame, hc=None) -> pd.DataFrame:
     """The model's effective RAO with `loading` on the aggregate rows of raos.parquet: (window_id, channel,
-    omega, model_tuned), window_id being the aggregate's '+'-joined members."""
+    omega, model_tuned), window_id being the aggregate's '+'-joined members; `motions` a MotionTable."""
     from seatune.io.hindcast_readers import read_hindcast
     from seatune.pipeline.identify import effective_model_rao, window_wave_spectrum
 
@@ -71,8 +71,8 @@ def tuned_model_raos(run, vessel, loading, windows: pd.DataFrame, motions: pd.Da
     per_window = {}
     for row in windows[windows["window_id"].astype(str).isin(members)].itertuples():
         mid = row.start + (row.end - row.start) / 2
-        k = int(np.clip(motions["time"].searchsorted(mid), 0, len(motions) - 1))
-        wave, dirs, _ = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], omega, sea)
+        at = motions.row_at(mid, ["lat", "lon"])  # the grid row at mid-window
+        wave, dirs, _ = window_wave_spectrum(hc, row, at["lat"], at["lon"], omega, sea)
         per_window[str(row.window_id)] = effective_model_rao(vessel, loading, channels, omega, dirs, wave,
                                                              row.heading_deg)  # (nch, nw)
     out = []
@@ -85,12 +85,13 @@ def tuned_model_raos(run, vessel, loading, windows: pd.DataFrame, motions: pd.Da
     return pd.concat(out, ignore_index=True)
 
 
-def model_spectra(run, vessel, loadings: dict, windows: pd.DataFrame, motions: pd.DataFrame,
+def model_spectra(run, vessel, loadings: dict, windows: pd.DataFrame, motions,
                   spectra: pd.DataFrame, hc=None) -> pd.DataFrame:
     """The measured Welch spectrum of the main channel of each DOF (heave, roll, pitch) per accepted window beside
     the model's with each loading in `loadings` ({"prior": …, "tuned": …}) in the window's directional sea:
     (window_id, channel, omega, measured, <one column per loading>) in channel unit²·s/rad. The model's S_xx is
-    |H_eff|² S_ζζ with identify's effective RAO, so it is the spectrum whose ratio identify calls the RAO."""
+    |H_eff|² S_ζζ with identify's effective RAO, so it is the spectrum whose ratio identify calls the RAO.
+    `motions`: the MotionTable (the position at mid-window)."""
     from seatune.io.hindcast_readers import read_hindcast
     from seatune.pipeline.identify import effective_model_rao, mode_channels, window_wave_spectrum
 
@@ -107,8 +108,8 @@ def model_spectra(run, vessel, loadings: dict, windows: pd.DataFrame, motions: p
         mine = spectra[spectra["window_id"] == row.window_id]
         omega = np.sort(mine["omega"].unique())
         mid = row.start + (row.end - row.start) / 2
-        k = int(np.clip(motions["time"].searchsorted(mid), 0, len(motions) - 1))
-        wave, dirs, _ = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], omega, sea)
+        at = motions.row_at(mid, ["lat", "lon"])  # the grid row at mid-window
+        wave, dirs, _ = window_wave_spectrum(hc, row, at["lat"], at["lon"], omega, sea)
         s_wave = omnidirectional(wave, dirs)  # S_ζζ [m²·s/rad]
         have = [c for c in channels if c in set(mine["channel"])]
         part = pd.DataFrame({"window_id": row.window_id, "channel": np.repeat(have, omega.size),
@@ -133,6 +134,7 @@ def report_stage(run, vessel, echo=print, force: bool = False, not_run: dict[str
     """`not_run`: {stage: why} of the stages that could not run this time (no accepted window, a stage's error):
     their artefacts, even left from an earlier run, stay off the page, which says why."""
     from seatune.atomic import atomic_path
+    from seatune.io.motion_table import MotionTable
     from seatune.io.parquet import column_units, table_metadata, write_table
     from seatune.io.rundir import fingerprint, is_fresh, recorded_fingerprint
     from seatune.physics.modes import coupled_modes
@@ -160,14 +162,12 @@ def report_stage(run, vessel, echo=print, force: bool = False, not_run: dict[str
     def stage_table(name, units):  # the table, or an empty one with its columns when its stage did not run
         return pd.DataFrame(columns=list(units)) if name in left_out else pd.read_parquet(run.artefact(name))
 
-    motions = pd.read_parquet(run.artefact("motions.parquet"),
-                              columns=[c for c in TRACK_COLUMNS
-                                       if c in column_units(run.artefact("motions.parquet"))])
+    motions = MotionTable(run.artefact("motions.parquet"))
     windows, raos = pd.read_parquet(run.artefact("windows.parquet")), stage_table("raos.parquet", RAO_UNITS)
     history, diag_path = optional("tuning_history.parquet"), run.artefact("diagnosis.parquet")
     diagnosed = "diagnosis.parquet" not in left_out and diag_path.exists()
-    dt = np.diff(motions["time"].to_numpy()[:2]).astype("timedelta64[ns]").astype(float) * 1e-9
-    step = max(int(round(1.0 / float(dt[0]))), 1) if dt.size and dt[0] > 0 else 1
+    dt = motions.period_s()
+    step = max(int(round(1.0 / dt)), 1) if dt else 1  # the track at ~1 Hz
     inp = ReportInputs(
         run_name=run.spec.name, run_file=str(run.path), vessel_name=vessel.spec.name,
         vessel_file=os.path.normpath(run.vessel_path),
@@ -175,9 +175,9 @@ def report_stage(run, vessel, echo=print, force: bool = False, not_run: dict[str
               for p, spec in run.logs],
         hindcast=f"{os.path.normpath(run.hindcast_path)} ({run.spec.hindcast.format})", settings=run.spec.model_dump(),
         version=seatune.__version__, fingerprint=fp, samples=len(motions),
-        time_span=(motions["time"].iloc[0], motions["time"].iloc[-1]),
+        time_span=motions.span(),
         ingest_meta=table_metadata(run.artefact("motions.parquet")),
-        motion_units=column_units(run.artefact("motions.parquet")), track=motions.iloc[::step].reset_index(drop=True),
+        motion_units=column_units(run.artefact("motions.parquet")), track=motions.thinned(step, TRACK_COLUMNS),
         waves=pd.read_parquet(run.artefact("waves.parquet")), windows=windows,
         rejections=rejection_counts(windows) if len(windows) else [],
         window_stats=stage_table("window_stats.parquet", STATS_UNITS), raos=raos,

@@ -227,6 +227,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
     the tuned parameters (the alternation passes the tuned posterior)."""
     from seatune.errors import UserError
     from seatune.io.hindcast_readers import read_hindcast
+    from seatune.io.motion_table import MotionTable
     from seatune.io.parquet import write_table
     from seatune.io.rundir import fingerprint, is_fresh
     from seatune.pipeline.tune import tuning_parameters
@@ -251,7 +252,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
         return {"skipped": True, "disabled": True}
     if not force and is_fresh(outs, fp):
         return {"skipped": True}
-    motions, windows = pd.read_parquet(src[0]), pd.read_parquet(src[1])
+    motions, windows = MotionTable(src[0]), pd.read_parquet(src[1])
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
     channels = settings.channels or sea_channels(vessel, set(motions.columns))
     unknown = [c for c in channels if c not in motions.columns or c not in {ch.name for ch in vessel.channels}]
@@ -267,9 +268,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
     without_roll = [channels[k] for k in keep]
     rows, rows_roll = [], []
     for row in windows[windows["accepted"]].sort_values("start").itertuples():
-        part = motions[
-            (motions["time"] >= row.start) & (motions["time"] <= row.end) & (motions["record"] == row.record)
-        ]
+        part = motions.window(row.start, row.end, ["lat", "lon", *channels], record=row.record)
         mid = len(part) // 2
         priors = hindcast_priors(
             hc, row, part["lat"].iloc[mid], part["lon"].iloc[mid], run.spec.hindcast.uncertainty, settings

@@ -157,8 +157,8 @@ def window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, name
         st = stats[stats["window_id"] == row.window_id].set_index("channel")
         sp = spectra[spectra["window_id"] == row.window_id]
         mid = row.start + (row.end - row.start) / 2
-        k = int(np.clip(motions["time"].searchsorted(mid), 0, len(motions) - 1))
-        wave, dirs, _ = window_wave_spectrum(hc, row, motions["lat"].iloc[k], motions["lon"].iloc[k], db.omega, sea)
+        at = motions.row_at(mid, ["lat", "lon"])  # the grid row at mid-window
+        wave, dirs, _ = window_wave_spectrum(hc, row, at["lat"], at["lon"], db.omega, sea)
         d_dir = direction_step(dirs)
         hs0 = 4.0 * np.sqrt(np.trapezoid(wave.sum(axis=1) * d_dir, db.omega))
         ws = window_uncertainty(sea, row.window_id, unc, row)  # the estimated sea's, else the hindcast's
@@ -245,13 +245,14 @@ def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
         return {"skipped": True}
     parameters = tuning_parameters(run, vessel)
     from seatune.diagnosis.effects import MODEL_SIDE
+    from seatune.io.motion_table import MotionTable
 
     unused = [e["kind"] for e in vessel.spec.effects if e["kind"] not in MODEL_SIDE]
     if unused:
         echo(f"tune: note: {', '.join(unused)} (vessel effects) act on the sea or depend on the sea state; "
              f"tuning solves the vessel without them")
     windows, stats, spectra = (pd.read_parquet(p) for p in src[:3])
-    motions = pd.read_parquet(src[3], columns=["time", "lat", "lon"])
+    motions = MotionTable(src[3])
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
     available = set(stats["channel"])
     channels = settings.channels or [c.name for c in vessel.channels if c.name in available]

@@ -206,6 +206,7 @@ WINDOW_UNITS = {"window_id": "", "start": "UTC", "end": "UTC", "duration_s": "s"
 
 def windows_stage(run, echo=print, force: bool = False) -> dict:
     """Read motions/waves, find the candidates, write windows.parquet (with the hindcast at mid-window)."""
+    from seatune.io.motion_table import MotionTable
     from seatune.io.parquet import write_table
     from seatune.io.rundir import fingerprint, is_fresh
 
@@ -214,12 +215,16 @@ def windows_stage(run, echo=print, force: bool = False) -> dict:
     out = run.artefact("windows.parquet")
     if not force and is_fresh([out], fp):
         return {"skipped": True}
-    motions, waves = pd.read_parquet(src[0]), pd.read_parquet(src[1])
+    motions, waves = MotionTable(src[0]), pd.read_parquet(src[1])
     for path, df in zip(src, (motions, waves), strict=True):
         if not len(df):
             raise UserError(str(path), None, "too little data: no rows (re-run `seatune ingest` on the logs)")
     fs = run.spec.ingest.rate_hz
-    table = windows_table(find_windows(motions, waves, run.spec.windows, fs))
+    columns = ["time", "record", "sog", "heading_deg", run.spec.windows.stationarity_channel]
+    candidates = []
+    for record in motions.records():  # one record in memory at a time
+        candidates += find_windows(motions.record(record, columns), waves, run.spec.windows, fs)
+    table = windows_table(candidates)
     mid = table["start"] + (table["end"] - table["start"]) / 2
     secs = (waves["time"] - waves["time"].iloc[0]).dt.total_seconds().to_numpy()
     at = (mid - waves["time"].iloc[0]).dt.total_seconds().to_numpy()
