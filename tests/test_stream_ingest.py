@@ -109,3 +109,52 @@ def test_a_stage_stopped_by_bad_input_leaves_the_old_table(tmp_path):
     assert again.returncode == 2 and "Traceback" not in again.stderr
     assert (tmp_path / "run" / "motions.parquet").read_bytes() == before
     assert not list((tmp_path / "run").glob(".*.tmp"))  # the spool and the partial table are gone
+
+
+def _reference_windows(table, settings, fs):
+    """The scan as it was before it streamed: each record whole, the speed smoothed over it, runs shorter than
+    the smoothing joined to the run before (the record's first to the one after), then cut into windows."""
+    from seatune.pipeline.windows import _candidate, _runs, _split_slow_run
+
+    out = []
+    n = max(1, int(round(settings.sog_smoothing_s * fs)))
+    for record, rec in table.groupby("record", sort=True):
+        rec = rec.reset_index(drop=True)
+        sog = rec["sog"].rolling(n, center=True, min_periods=1).mean().to_numpy()
+        slow = sog < settings.max_sog
+        runs = _runs(slow)
+        for i, (a, b) in enumerate(runs):
+            if b - a < n and len(runs) > 1:
+                slow[a:b] = slow[runs[i - 1][0]] if i > 0 else slow[runs[1][0]]
+        for a, b in _runs(slow):
+            if not slow[a]:
+                out.append(_candidate(rec.iloc[a:b], record, False, f"moving: speed over ground "
+                                      f"{sog[a:b].mean():.1f} m/s > {settings.max_sog:g} m/s", sog[a:b]))
+            else:
+                _split_slow_run(rec.iloc[a:b], record, sog[a:b], None, settings, fs, out)
+    return out
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_windows_found_a_row_group_at_a_time_equal_the_whole_table(seed):
+    """Speeds flickering about the threshold (short runs absorbed), NaN speeds, record breaks: cut into pieces
+    of any size, the scan gives the candidates of the table read whole."""
+    from seatune.io.run_yaml import WindowSettings
+    from seatune.pipeline.windows import scan_windows
+
+    rng = np.random.default_rng(seed)
+    settings = WindowSettings(min_duration_s=120, max_duration_s=400, sog_smoothing_s=6)
+    n = 20_000
+    t = pd.Timestamp("2026-01-01", tz="UTC") + pd.to_timedelta(np.arange(n) * 0.1, unit="s")
+    sog = np.repeat(rng.choice([0.2, 0.2, 0.6, 0.49, 0.51], size=n // 400), 400) + rng.normal(0, 0.03, n)
+    sog[rng.random(n) < 0.01] = np.nan
+    table = pd.DataFrame({"time": t, "record": np.cumsum(rng.random(n) < 2e-4), "sog": sog,
+                          "heading_deg": np.cumsum(rng.normal(0, 0.05, n)) % 360, "roll": rng.normal(0, 0.01, n)})
+    whole = _reference_windows(table, settings, 10.0)
+    assert len(whole) > 20 and any(c.accepted for c in whole) and any("moving" in c.reason for c in whole)
+    for size in (37, 701, 5000, n):
+        pieces = scan_windows([table.iloc[i:i + size] for i in range(0, n, size)], None, settings, 10.0)
+        assert [(c.start, c.end, c.record, c.accepted, c.reason) for c in pieces] == \
+               [(c.start, c.end, c.record, c.accepted, c.reason) for c in whole]
+        np.testing.assert_allclose([c.sog for c in pieces], [c.sog for c in whole], rtol=1e-12)
+        np.testing.assert_allclose([c.heading_deg for c in pieces], [c.heading_deg for c in whole], rtol=1e-12)

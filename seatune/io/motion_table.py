@@ -111,6 +111,11 @@ class MotionTable:
                 return float(df["lat"].iloc[-1]), float(df["lon"].iloc[-1])
         return float("nan"), float("nan")
 
+    def blocks(self, columns=None):
+        """The table one row group (an hour) at a time, in time order."""
+        for g in range(self.file.num_row_groups):
+            yield self._read([g], columns)
+
     def thinned(self, step: int, columns=None) -> pd.DataFrame:
         """Every `step`-th row, read one row group at a time."""
         parts, offset = [], 0

@@ -39,16 +39,6 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(bounds[:-1], bounds[1:], strict=True))
 
 
-def _absorb_short_runs(mask: np.ndarray, shortest: int) -> np.ndarray:
-    """Runs shorter than `shortest` samples (the speed flickering about the threshold) join the run before."""
-    mask = mask.copy()
-    runs = _runs(mask)
-    for i, (a, b) in enumerate(runs):
-        if b - a < shortest and len(runs) > 1:
-            mask[a:b] = mask[runs[i - 1][0]] if i > 0 else mask[runs[1][0]]
-    return mask
-
-
 def _circular_mean_deg(deg: np.ndarray) -> float:
     r = np.radians(deg)
     return float(np.degrees(np.arctan2(np.sin(r).mean(), np.cos(r).mean())) % 360.0)
@@ -92,20 +82,148 @@ def stationarity_test(x: np.ndarray, fs: float, parts: int, alpha: float) -> tup
 def find_windows(motions: pd.DataFrame, waves: pd.DataFrame | None, settings: WindowSettings,
                  fs: float) -> list[Candidate]:
     """Candidates over the motion table (columns time, record, sog, heading_deg and motion channels)."""
-    out: list[Candidate] = []
-    for record, rec in motions.groupby("record", sort=True):
-        rec = rec.reset_index(drop=True)
-        n_smooth = max(1, int(round(settings.sog_smoothing_s * fs)))
-        sog = rec["sog"].rolling(n_smooth, center=True, min_periods=1).mean().to_numpy()
-        slow = _absorb_short_runs(sog < settings.max_sog, n_smooth)
+    return scan_windows([motions], waves, settings, fs)
+
+
+def scan_windows(blocks, waves: pd.DataFrame | None, settings: WindowSettings, fs: float) -> list[Candidate]:
+    """:func:`find_windows` over the table given as consecutive pieces in time order (motions.parquet's row
+    groups): the same candidates, holding no more than a window's rows and the smoothing's context."""
+    scan = _Scan(waves, settings, fs)
+    for block in blocks:
+        records = block["record"].to_numpy()
+        cuts = np.r_[0, np.flatnonzero(np.diff(records)) + 1, len(block)]
+        for a, b in zip(cuts[:-1], cuts[1:], strict=True):
+            if b > a:
+                scan.feed(int(records[a]), block.iloc[a:b].reset_index(drop=True))
+    scan.end_record()
+    return scan.out
+
+
+class _Scan:
+    """The streaming state of :func:`scan_windows` within one record: (A) the speed over ground smoothed once a
+    row has its context, (B) runs shorter than the smoothing absorbed (a run's value is final once it is that
+    long or ended), (C) the low-speed runs cut into windows as soon as `max_duration_s` of them is known."""
+
+    def __init__(self, waves, settings: WindowSettings, fs: float):
+        self.waves, self.settings, self.fs = waves, settings, fs
+        self.n = max(1, int(round(settings.sog_smoothing_s * fs)))
+        self.n_min, self.n_max = int(settings.min_duration_s * fs), int(settings.max_duration_s * fs)
+        self.out: list[Candidate] = []
+        self.record = None
+
+    def _start(self, record: int) -> None:
+        self.record = record
+        self.raw = []  # (A) rows whose smoothed speed waits for its right context
+        self.ctx = None  # the rows before them (left context)
+        self.open: list[pd.DataFrame] = []  # (B) the current run of the raw slow mask
+        self.open_value, self.open_len, self.open_long, self.first_run = None, 0, False, True
+        self.prev_value = None
+        self.run_value = None  # (C) the current absorbed run: slow rows from the next window's start, or sums
+        self.buf: list[pd.DataFrame] = []
+        self.moving = None
+
+    def feed(self, record: int, rows: pd.DataFrame) -> None:
+        if record != self.record:
+            self.end_record()
+            self._start(record)
+        self.raw.append(rows)
+        if sum(map(len, self.raw)) > 2 * self.n:
+            self._smooth(final=False)
+
+    def end_record(self) -> None:
+        if self.record is None:
+            return
+        self._smooth(final=True)
+        self._close_open(final=True)
+        self._close_run(final=True)
+        self.record = None
+
+    # (A) ------------------------------------------------------------------------------------------------
+    def _smooth(self, final: bool) -> None:
+        raw = pd.concat(self.raw, ignore_index=True) if len(self.raw) > 1 else self.raw[0]
+        lead = 0 if self.ctx is None else len(self.ctx)
+        sog = pd.concat([self.ctx["sog"], raw["sog"]], ignore_index=True) if lead else raw["sog"]
+        smooth = sog.rolling(self.n, center=True, min_periods=1).mean().to_numpy()[lead:]
+        done = len(raw) if final else len(raw) - self.n  # the last n wait for their right context
+        if done <= 0:
+            return
+        rows = raw.iloc[:done].assign(sog_smooth=smooth[:done])
+        self.ctx = raw.iloc[max(0, done - self.n):done][["sog"]]
+        self.raw = [raw.iloc[done:].reset_index(drop=True)] if done < len(raw) else []
+        self._runs(rows)
+
+    # (B) ------------------------------------------------------------------------------------------------
+    def _runs(self, rows: pd.DataFrame) -> None:
+        slow = rows["sog_smooth"].to_numpy() < self.settings.max_sog
         for a, b in _runs(slow):
-            part = rec.iloc[a:b]
-            if not slow[a]:
-                out.append(_candidate(part, record, False, f"moving: speed over ground {sog[a:b].mean():.1f} m/s "
-                                                           f"> {settings.max_sog:g} m/s", sog[a:b]))
-                continue
-            out += _split_slow_run(part, record, sog[a:b], waves, settings, fs)
-    return out
+            if self.open_value is not None and slow[a] != self.open_value:
+                self._close_open(final=False)
+            if self.open_value is None:
+                self.open_value, self.open_len, self.open_long = bool(slow[a]), 0, False
+            self.open.append(rows.iloc[a:b])
+            self.open_len += b - a
+            if self.open_len >= self.n:  # long enough: its value stands whatever follows
+                self.open_long = True
+                self._segment(self.open_value, self.open)
+                self.open = []
+
+    def _close_open(self, final: bool) -> None:
+        """The open run ended (final: with the record). A short one takes the previous run's value; the record's
+        first, when short and followed by another, the next run's (the only other value)."""
+        if self.open_value is None:
+            return
+        value = self.open_value
+        if not self.open_long:
+            if self.first_run:
+                value = value if final else not value
+            else:
+                value = self.prev_value
+        if self.open:
+            self._segment(value, self.open)
+        self.prev_value, self.first_run = value, False
+        self.open, self.open_value, self.open_len, self.open_long = [], None, 0, False
+
+    # (C) ------------------------------------------------------------------------------------------------
+    def _segment(self, slow: bool, parts: list[pd.DataFrame]) -> None:
+        if self.run_value is not None and slow != self.run_value:
+            self._close_run(final=True)
+        if self.run_value is None:
+            self.run_value, self.buf, self.moving = slow, [], None
+        if slow:
+            self.buf += parts
+            self._windows(final=False)
+            return
+        for part in parts:
+            r = np.radians(part["heading_deg"].to_numpy())
+            sums = np.array([np.sin(r).sum(), np.cos(r).sum(), part["sog_smooth"].sum(), len(part)])
+            if self.moving is None:
+                self.moving = {"start": part["time"].iloc[0], "sums": np.zeros(4)}
+            self.moving["sums"] += sums
+            self.moving["end"] = part["time"].iloc[-1]
+
+    def _close_run(self, final: bool) -> None:
+        if self.run_value is None:
+            return
+        if self.run_value:
+            self._windows(final=True)
+        elif self.moving is not None:
+            sin, cos, sog, n = self.moving["sums"]
+            mean = sog / n
+            self.out.append(Candidate(start=self.moving["start"], end=self.moving["end"], record=int(self.record),
+                                      accepted=False, reason=f"moving: speed over ground {mean:.1f} m/s > "
+                                                             f"{self.settings.max_sog:g} m/s",
+                                      heading_deg=float(np.degrees(np.arctan2(sin / n, cos / n)) % 360.0),
+                                      sog=float(mean)))
+        self.run_value, self.buf, self.moving = None, [], None
+
+    def _windows(self, final: bool) -> None:
+        """Cut the buffered low-speed rows into windows; without `final`, only those whose end is decided."""
+        if not self.buf or (not final and sum(map(len, self.buf)) < self.n_max):
+            return
+        part = pd.concat(self.buf, ignore_index=True) if len(self.buf) > 1 else self.buf[0].reset_index(drop=True)
+        start = _split_slow_run(part, self.record, part["sog_smooth"].to_numpy(), self.waves, self.settings,
+                                self.fs, self.out, stop_before=None if final else len(part) - self.n_max)
+        self.buf = [part.iloc[start:].reset_index(drop=True)] if start < len(part) else []
 
 
 def _candidate(part: pd.DataFrame, record: int, accepted: bool, reason: str, sog: np.ndarray) -> Candidate:
@@ -114,13 +232,15 @@ def _candidate(part: pd.DataFrame, record: int, accepted: bool, reason: str, sog
                      sog=float(np.mean(sog)))
 
 
-def _split_slow_run(part, record, sog, waves, settings: WindowSettings, fs: float) -> list[Candidate]:
-    out = []
+def _split_slow_run(part, record, sog, waves, settings: WindowSettings, fs: float, out: list[Candidate],
+                    stop_before: int | None = None) -> int:
+    """Cut a low-speed run into windows (appended to `out`) from its start; with `stop_before`, only windows
+    starting before that row (their heading band decided within `max_duration_s`). Returns where it stopped."""
     n_min = int(settings.min_duration_s * fs)
     n_max = int(settings.max_duration_s * fs)
     start = 0
     heading = part["heading_deg"].to_numpy()
-    while start < len(part):
+    while start < len(part) and (stop_before is None or start <= stop_before):
         spread = _heading_spread(heading[start:start + n_max])
         stop = start + int(np.searchsorted(spread, settings.max_heading_change_deg, side="right"))
         piece = part.iloc[start:stop]
@@ -133,7 +253,7 @@ def _split_slow_run(part, record, sog, waves, settings: WindowSettings, fs: floa
         else:
             out.append(_judge(piece, record, sog[start:stop], waves, settings, fs))
         start = stop
-    return out
+    return start
 
 
 def _judge(piece, record, sog, waves, settings: WindowSettings, fs: float) -> Candidate:
@@ -221,10 +341,7 @@ def windows_stage(run, echo=print, force: bool = False) -> dict:
             raise UserError(str(path), None, "too little data: no rows (re-run `seatune ingest` on the logs)")
     fs = run.spec.ingest.rate_hz
     columns = ["time", "record", "sog", "heading_deg", run.spec.windows.stationarity_channel]
-    candidates = []
-    for record in motions.records():  # one record in memory at a time
-        candidates += find_windows(motions.record(record, columns), waves, run.spec.windows, fs)
-    table = windows_table(candidates)
+    table = windows_table(scan_windows(motions.blocks(columns), waves, run.spec.windows, fs))
     mid = table["start"] + (table["end"] - table["start"]) / 2
     secs = (waves["time"] - waves["time"].iloc[0]).dt.total_seconds().to_numpy()
     at = (mid - waves["time"].iloc[0]).dt.total_seconds().to_numpy()
