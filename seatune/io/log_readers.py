@@ -346,9 +346,8 @@ class _Sink:
         self.flush()
         cols = MSGTYPES[self.msgtype]
         parts = self.parts
-        stamp = np.concatenate([p["stamp"] for p in parts])
-        log = np.concatenate([p["log"] for p in parts])
-        data = {c: np.concatenate([p[c] for p in parts]) for c in cols}
+        stamp, log = (np.concatenate([p.pop(c) for p in parts]) for c in ("stamp", "log"))
+        data = {c: np.concatenate([p.pop(c) for p in parts]) for c in cols}  # each block freed as it is joined
         order = np.argsort(log, kind="stable")
         if (np.diff(order) != 1).any():  # not already in receive order
             stamp, log = stamp[order], log[order]
@@ -358,7 +357,7 @@ class _Sink:
         if len(frames) > 1:
             warnings.append(f"{Path(source).name}: topic {self.topic} has several frame_ids "
                             f"({', '.join(f'{k!r}: {v:,}' for k, v in frames.items())}); using {frame_id!r}")
-        df = pd.DataFrame({"time": _utc(stamp), "log_time": _utc(log), **data})
+        df = pd.DataFrame({"time": _utc(stamp), "log_time": _utc(log), **data}, copy=False)
         if self.msgtype == ODOM:
             children = _merge_counts([p["children"] for p in parts])
             df.attrs["child_frame_id"] = max(children, key=children.get) if children else ""

@@ -189,7 +189,7 @@ def imu_motions(imu: TopicTable | LogContents | None, frame: str = "FLU",
         "imu_fx": f[:, 0],
         "imu_fy": f[:, 1],
         "imu_fz": f[:, 2],
-    })
+    }, copy=False)
     no_att = int((~ok & ~np.isfinite(roll)).sum())
     out.attrs = {"source": _source(imu), "topic": imu.topic, "frame": "NED→FLU" if ned else "FLU",
                  "no_orientation": no_att}
@@ -314,7 +314,10 @@ def repair_time(table: pd.DataFrame | TopicTable) -> tuple[pd.DataFrame | TopicT
     dup = np.zeros(len(order), dtype=bool)
     dup[1:] = sorted_ns[1:] == sorted_ns[:-1]
     keep = order[~dup]
-    out = df.iloc[keep].reset_index(drop=True)
+    if len(keep) == len(df) and (np.diff(keep) == 1).all():  # already in order: no copy
+        out = df.reset_index(drop=True) if not isinstance(df.index, pd.RangeIndex) or df.index.start else df
+    else:  # column by column: DataFrame.iloc would first join the columns into one block (3× the memory)
+        out = pd.DataFrame({c: df[c].take(keep).reset_index(drop=True) for c in df.columns}, copy=False)
     out.attrs = dict(df.attrs)
     counts = {"non_monotonic_repaired": backwards, "duplicates_removed": int(dup.sum()),
               "missing_stamps_removed": int(nat.sum())}
