@@ -23,7 +23,7 @@ neither fixes these):
 * Missing partitions: a grid over (Tp, direction, Hs) of an added partition, its three best cells at least
   90° apart refined; it is kept when its χ² gain on the residuals the loading hardly changes (design spread
   < 0.15) exceeds BIC's k·ln n (k = 5; n those residuals / 2 for the correlation of adjacent Welch bins), its
-  Hs ≥ `min_hs`, and it is not a shape correction of a stronger partition at the same period; an added
+  Hs ≥ `min_hs`, and it is not a shape correction of a partition at the same period and direction; an added
   system a later one made redundant is pruned. Partitions close in Tp and direction form one wave system.
 """
 
@@ -307,16 +307,18 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
                        ratio)
 
 
-def _shape_correction(x: np.ndarray, tp_rel: float = 0.25, hs_share: float = 0.7) -> bool:
+def _shape_correction(x: np.ndarray, tp_rel: float = 0.25) -> bool:
     """An added partition (last row) at the period of another is a correction of that one's frequency or
     directional shape (an Ochi–Hubble or wrapped-normal sea fitted by JONSWAP × cos-2s), not a new system, when
-    it is weaker or within the two spreads in direction: a weak crossing sea at the same period is not told
-    apart from a spreading error by three motions."""
-    hs, tp, spread = np.exp(x[:, 0]), np.exp(x[:, 1]), np.exp(x[:, 3])
+    it lies within the two spreads (at least 60°) in direction. A weaker sea at the same period from farther
+    away is a crossing swell: the cross-spectra's phases place it (its second directional moments differ from
+    one broad peak's). Rejecting every weaker one, as before, lost the bank's missing swells that share the
+    hindcast swell's period 70–110° away (found 45 → 58 %, false systems 0.11 → 0.14 per window)."""
+    tp, spread = np.exp(x[:, 1]), np.exp(x[:, 3])
     near = np.abs(tp[:-1] - tp[-1]) / tp[:-1] < tp_rel
     ddir = direction_difference_deg(x[:-1, 2], x[-1, 2])
     close = ddir < np.maximum(60.0, spread[:-1] + spread[-1])
-    return bool(np.any(near & ((hs[-1] < hs_share * hs[:-1]) | close)))
+    return bool(np.any(near & close))
 
 
 def match_hindcast(parts: list[Partition], systems: list[int], priors: list[PartitionPrior],
