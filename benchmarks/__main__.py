@@ -12,6 +12,7 @@ from benchmarks import (
     bench_ingest,
     bench_modes,
     bench_predict,
+    bench_run_memory,
     bench_sea,
     bench_simulate_day,
     bench_synthesis,
@@ -22,7 +23,7 @@ BENCHMARKS = {"channel_sigma": bench_channel_sigma.run, "synthesis": bench_synth
               "ingest": bench_ingest.run, "ukf": bench_ukf.run, "dbi": bench_dbi.run, "batch": bench_batch.run,
               "predict": bench_predict.run, "diagnose": bench_diagnose.run,
               "modes": bench_modes.run, "sea": bench_sea.run,
-              "simulate_day": bench_simulate_day.run}
+              "simulate_day": bench_simulate_day.run, "run_memory": bench_run_memory.run}
 
 if __name__ == "__main__":
     names = sys.argv[1:] or list(BENCHMARKS)
