@@ -183,7 +183,7 @@ def identify_window(model, prior, row, wave, dirs, source, spectra: pd.DataFrame
     wls = wave_log_std(omega, np.maximum(s_wave, 1e-300), uncertainty.hs_rel_std, uncertainty.tp_std_s / uncertainty.tp)
     beta = mean_wave_direction(wave, dirs, row.heading_deg)
     estimates, rows = {}, []
-    for j, name in enumerate(names):
+    for name in names:
         part = spectra[spectra["channel"] == name]
         s_resp = part["S"].to_numpy()
         dof = float(part["dof"].iloc[0])
@@ -191,11 +191,15 @@ def identify_window(model, prior, row, wave, dirs, source, spectra: pd.DataFrame
                                low_frequency_share=settings.low_frequency_share, wave_log_std=wls)
         sampling = rao_long_crested(omega, s_resp, dof, s_wave, settings.band_fraction, level=settings.confidence)
         estimates[name] = (est, sampling)
+    kept = rao_bins(model, omega, [e for e, _ in estimates.values()])
+    for j, name in enumerate(names):
+        est = estimates[name][0]
         rows.append(pd.DataFrame({
-            "scope": "window", "window_id": str(row.window_id), "channel": name, "omega": omega,
-            "rao_amp": est.amplitude, "ci_low": est.low, "ci_high": est.high, "model_prior": h_model[j],
-            "low_confidence": bool(est.low_confidence), "reason": _reason(est), "beta_deg": beta,
-            "sector_deg": np.nan, "hs": uncertainty.hs, "hs_bin_m": np.nan, "n_windows": 1, "wave_source": source}))
+            "scope": "window", "window_id": str(row.window_id), "channel": name, "omega": omega[kept],
+            "rao_amp": est.amplitude[kept], "ci_low": est.low[kept], "ci_high": est.high[kept],
+            "model_prior": h_model[j][kept], "low_confidence": bool(est.low_confidence), "reason": _reason(est),
+            "beta_deg": beta, "sector_deg": np.nan, "hs": uncertainty.hs, "hs_bin_m": np.nan, "n_windows": 1,
+            "wave_source": source}))
     # the hindcast is common to every channel: when most channels see energy it lacks, the window is suspect
     flagged = [e for e, _ in estimates.values() if e.low_confidence]
     window_flag = len(flagged) >= 0.5 * len(estimates)
@@ -205,6 +209,19 @@ def identify_window(model, prior, row, wave, dirs, source, spectra: pd.DataFrame
             r["low_confidence"] = True
             r["reason"] = f"{len(flagged)} of {len(estimates)} channels: {_reason(worst)}"
     return estimates, rows, beta, window_flag
+
+
+def rao_bins(model, omega: np.ndarray, estimates) -> np.ndarray:
+    """The frequencies raos.parquet keeps: the hydro database's range and wherever a channel's RAO was measured.
+    Beyond both the model RAO is an extrapolation and nothing was measured; the Welch grid runs to Nyquist, so
+    the table held ~17× more rows (every window's kept in memory until the windows are combined)."""
+    measured = np.zeros(omega.size, bool)
+    for e in estimates:
+        measured |= np.isfinite(e.amplitude)
+    lo, hi = float(model.db.omega[0]), float(model.db.omega[-1])
+    if measured.any():
+        lo, hi = min(lo, float(omega[measured].min())), max(hi, float(omega[measured].max()))
+    return (omega >= lo) & (omega <= hi)
 
 
 def sector_of(beta_deg: float, width: float) -> float:
@@ -229,6 +246,7 @@ def aggregate_rows(per_window: list[dict], raos: pd.DataFrame, settings) -> list
                        if (w["sector"], w["hs_bin"]) == (sector, hs_bin) and not e.low_confidence]
             prior = raos[(raos["channel"] == name) & raos["window_id"].isin(members)]
             table = prior.pivot(index="omega", columns="window_id", values="model_prior")
+            part = part[part["omega"].isin(table.index)]  # the bins the windows' rows keep (rao_bins)
             with np.errstate(divide="ignore"):
                 model_prior = np.exp(np.log(table).mean(axis=1)).reindex(part["omega"].to_numpy()).to_numpy()
             out.append(pd.DataFrame({
@@ -516,12 +534,29 @@ def _fit_mode(omega, amp, lo, hi, s_wave, prior: float, rng: float, tp_rel_std: 
             "zeta": best.zeta, "tp_std": shift}
 
 
+def held_sea(omega: np.ndarray, wave: np.ndarray, dirs: np.ndarray) -> dict:
+    """A window's directional sea as identify holds it until the windows are combined: S(ω, D) only over the
+    bins where the omnidirectional spectrum reaches 1e-12 of its peak (`wave_omega`; zero elsewhere, see
+    `_wave_on`), as the Welch grid runs to Nyquist and every window's seas are held: ~10× less memory."""
+    s_wave = omnidirectional(wave, dirs)
+    live = np.flatnonzero(s_wave >= 1e-12 * s_wave.max()) if s_wave.size and s_wave.max() > 0 else []
+    part = slice(live[0], live[-1] + 1) if len(live) else slice(0, 0)
+    return {"wave": wave[part].copy(), "wave_omega": omega[part], "dirs": dirs, "s_wave": s_wave}
+
+
 def _wave_on(w: dict, omega: np.ndarray) -> np.ndarray:
-    """The window's directional wave spectrum on another frequency grid."""
-    if np.array_equal(omega, w["omega"]):
-        return w["wave"]
-    return np.stack([np.interp(omega, w["omega"], w["wave"][:, k], left=0, right=0)
-                     for k in range(w["wave"].shape[1])], axis=1)
+    """The window's directional wave spectrum on another frequency grid (zero beyond the bins held)."""
+    grid, wave = w.get("wave_omega", w["omega"]), w["wave"]
+    if np.array_equal(omega, grid):
+        return wave
+    at = np.searchsorted(omega, grid) if len(grid) else np.zeros(0, int)
+    if len(grid) and at[-1] < len(omega) and np.array_equal(omega[at], grid) and (np.diff(at) == 1).all():
+        out = np.zeros((len(omega), wave.shape[1]))  # a grid holding the held bins in a row: placed exactly
+        out[at[0]:at[-1] + 1] = wave
+        return out
+    if not len(grid):
+        return np.zeros((len(omega), len(w["dirs"])))
+    return np.stack([np.interp(omega, grid, wave[:, k], left=0, right=0) for k in range(wave.shape[1])], axis=1)
 
 
 def derived_parameters(model, known_loading, nat: list[dict]) -> list[dict]:
@@ -617,18 +652,17 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
         estimates, rows, beta, window_flag = identify_window(model, prior, row, wave, dirs, source, spec_w, settings,
                                                              unc)
         parts += rows
-        s_wave = omnidirectional(wave, dirs)
-        seas = {source: {"wave": wave, "dirs": dirs, "s_wave": s_wave}}  # every defensible sea of the window
+        seas = {source: held_sea(omega, wave, dirs)}  # every defensible sea of the window
         if source == "estimated from motions":
             hw, hd, hs_name = window_wave_spectrum(hc, row, lat, lon, omega)
-            seas[hs_name] = {"wave": hw, "dirs": hd, "s_wave": omnidirectional(hw, hd)}
+            seas[hs_name] = held_sea(omega, hw, hd)
         by_mode = {}  # a mode's own sea: roll against the sea fitted without the roll channels
         found = estimated_wave_spectrum(sea_roll, str(row.window_id), omega) if sea_roll is not None else None
         if found is not None:
             by_mode["Roll"] = "estimated without the roll channels"
-            seas[by_mode["Roll"]] = {"wave": found[0], "dirs": found[1], "s_wave": omnidirectional(found[0], found[1])}
-        per_window.append({"window_id": str(row.window_id), "estimates": estimates, "s_wave": s_wave, "omega": omega,
-                           "wave": wave, "dirs": dirs, "heading": row.heading_deg, "draft": draft, "seas": seas,
+            seas[by_mode["Roll"]] = held_sea(omega, found[0], found[1])
+        per_window.append({"window_id": str(row.window_id), "estimates": estimates, "omega": omega,
+                           **seas[source], "heading": row.heading_deg, "draft": draft, "seas": seas,
                            "sea_name": source, "sea_by_mode": by_mode,
                            "tp_rel_std": unc.tp_std_s / unc.tp,
                            "low_confidence": window_flag,
