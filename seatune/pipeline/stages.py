@@ -100,6 +100,20 @@ def _no_window(run) -> str | None:
         "no candidate window in the logs"
 
 
+def release_memory() -> None:
+    """Give the memory a finished stage freed back to the system: glibc keeps freed heap pages, and the next
+    stage's peak then stacks on them (a week of logs: 1082 MB for `seatune run` against 749 MB for its largest
+    stage alone)."""
+    import ctypes
+    import gc
+
+    gc.collect()
+    try:
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):  # not glibc: nothing to trim
+        pass
+
+
 def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = (), progress=None) -> dict[str, str]:
     """Run the stages up to `last`; `progress(stage)` (optional) is called as each stage starts.
 
@@ -160,6 +174,7 @@ def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = (), progress=N
             click.echo(f"{stage}: not run: {err}")
             continue
         click.echo(_line(stage, summary, time.perf_counter() - start))
+        release_memory()
         if stage == "windows" and last == "windows" and (empty := _no_window(run)):
             click.echo(f"warning: no accepted window: {empty}")
         if stage == "windows" and ORDER.index(last) > ORDER.index("identify"):
