@@ -534,12 +534,14 @@ def _fit_mode(omega, amp, lo, hi, s_wave, prior: float, rng: float, tp_rel_std: 
             "zeta": best.zeta, "tp_std": shift}
 
 
-def held_sea(omega: np.ndarray, wave: np.ndarray, dirs: np.ndarray) -> dict:
-    """A window's directional sea as identify holds it until the windows are combined: S(ω, D) only over the
-    bins where the omnidirectional spectrum reaches 1e-12 of its peak (`wave_omega`; zero elsewhere, see
-    `_wave_on`), as the Welch grid runs to Nyquist and every window's seas are held: ~10× less memory."""
+def held_sea(omega: np.ndarray, wave: np.ndarray, dirs: np.ndarray, band_fraction: float) -> dict:
+    """A window's directional sea as identify holds it until the windows are combined: S(ω, D) only over the span
+    of bins where the omnidirectional spectrum reaches a tenth of the energetic band's threshold (at most 1e-4 of
+    its peak; `wave_omega`, zero elsewhere, see `_wave_on`). Every fit reads the sea inside the band only; the
+    Welch grid runs to Nyquist, and a JONSWAP tail held whole cost ~0.7 MB per window and sea."""
     s_wave = omnidirectional(wave, dirs)
-    live = np.flatnonzero(s_wave >= 1e-12 * s_wave.max()) if s_wave.size and s_wave.max() > 0 else []
+    floor = min(1e-4, 0.1 * band_fraction)
+    live = np.flatnonzero(s_wave >= floor * s_wave.max()) if s_wave.size and s_wave.max() > 0 else []
     part = slice(live[0], live[-1] + 1) if len(live) else slice(0, 0)
     return {"wave": wave[part].copy(), "wave_omega": omega[part], "dirs": dirs, "s_wave": s_wave}
 
@@ -652,15 +654,16 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
         estimates, rows, beta, window_flag = identify_window(model, prior, row, wave, dirs, source, spec_w, settings,
                                                              unc)
         parts += rows
-        seas = {source: held_sea(omega, wave, dirs)}  # every defensible sea of the window
+        held = partial(held_sea, band_fraction=settings.band_fraction)
+        seas = {source: held(omega, wave, dirs)}  # every defensible sea of the window
         if source == "estimated from motions":
             hw, hd, hs_name = window_wave_spectrum(hc, row, lat, lon, omega)
-            seas[hs_name] = held_sea(omega, hw, hd)
+            seas[hs_name] = held(omega, hw, hd)
         by_mode = {}  # a mode's own sea: roll against the sea fitted without the roll channels
         found = estimated_wave_spectrum(sea_roll, str(row.window_id), omega) if sea_roll is not None else None
         if found is not None:
             by_mode["Roll"] = "estimated without the roll channels"
-            seas[by_mode["Roll"]] = held_sea(omega, found[0], found[1])
+            seas[by_mode["Roll"]] = held(omega, found[0], found[1])
         per_window.append({"window_id": str(row.window_id), "estimates": estimates, "omega": omega,
                            **seas[source], "heading": row.heading_deg, "draft": draft, "seas": seas,
                            "sea_name": source, "sea_by_mode": by_mode,
