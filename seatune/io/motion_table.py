@@ -1,4 +1,4 @@
-"""``motions.parquet`` read a window, a record or a fix at a time (ingest writes it an hour per row group), so no
+"""``motions.parquet`` read a window, a row group or a fix at a time (ingest writes it an hour per row group), so no
 stage holds the whole log: memory stays flat however long the trial."""
 
 from __future__ import annotations
@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 
@@ -62,21 +61,6 @@ class MotionTable:
         df = df[keep.to_numpy()].reset_index(drop=True)
         return df if columns is None else df[[c for c in cols if c in df.columns and
                                                (c in columns or c == "time")]]
-
-    def records(self) -> list[int]:
-        """The record numbers present (ingest numbers them consecutively)."""
-        ranges = [r for r in self._ranges("record") if r is not None]
-        if len(ranges) < self.file.num_row_groups:  # no statistics: read the column
-            return sorted(pc.unique(self.file.read(columns=["record"]).column("record")).to_pylist())
-        return sorted({k for lo, hi in ranges for k in range(int(lo), int(hi) + 1)})
-
-    def record(self, number: int, columns=None) -> pd.DataFrame:
-        """The rows of one record."""
-        ranges = self._ranges("record")
-        groups = [g for g, r in enumerate(ranges) if r is None or r[0] <= number <= r[1]]
-        df = self._read(groups, None if columns is None else ["record", *columns])
-        df = df[(df["record"] == number).to_numpy()].reset_index(drop=True)
-        return df if columns is None else df[[c for c in columns if c in df.columns]]
 
     def span(self) -> tuple[pd.Timestamp, pd.Timestamp]:
         """First and last time."""
