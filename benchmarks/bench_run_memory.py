@@ -38,7 +38,7 @@ def scenario(folder: Path, day: int, hours: float) -> Path:
     return path
 
 
-def run_yaml(folder: Path, days: list[Path], hindcast: Path) -> Path:
+def run_yaml(folder: Path, hindcast: Path) -> Path:
     data = yaml.safe_load((ROOT / "configs/runs/sample.yaml").read_text())
     data.update(run_dir=str(folder / "run"), vessel=str(ROOT / "configs/vessels/sample_osv.yaml"))
     data["logs"][0]["path"] = str(folder / "d*" / "*.mcap")
@@ -75,7 +75,7 @@ def trial(folder: Path, days: int, hours: float) -> dict:
     merged.to_netcdf(folder / "era5.nc")
     for p in parts:
         p.close()
-    seconds, peak = measured(["run", str(run_yaml(folder, [], folder / "era5.nc"))])
+    seconds, peak = measured(["run", str(run_yaml(folder, folder / "era5.nc"))])
     windows = pd.read_parquet(folder / "run" / "windows.parquet")
     return {"hours": days * hours, "seconds": seconds, "peak_mb": peak, "windows": int(windows["accepted"].sum())}
 
