@@ -81,7 +81,7 @@ class MotionTable:
         """(lat, lon) of the first finite fix at or after `t`, else of the last fix before it."""
         for g in self._groups(t, None):
             df = self._read([g], ["time", "lat", "lon"])
-            df = df[(df["time"] >= pd.Timestamp(t)).to_numpy() & _placed(df)]
+            df = df[(df["time"] >= pd.Timestamp(t)).to_numpy() & placed(df)]
             if len(df):
                 return float(df["lat"].iloc[0]), float(df["lon"].iloc[0])
         return self.last_fix()
@@ -90,7 +90,7 @@ class MotionTable:
         """(lat, lon) of the last finite fix; NaN when the table has none."""
         for g in reversed(range(self.file.num_row_groups)):
             df = self._read([g], ["lat", "lon"])
-            df = df[_placed(df)]
+            df = df[placed(df)]
             if len(df):
                 return float(df["lat"].iloc[-1]), float(df["lon"].iloc[-1])
         return float("nan"), float("nan")
@@ -103,8 +103,7 @@ class MotionTable:
     def thinned(self, step: int, columns=None) -> pd.DataFrame:
         """Every `step`-th row, read one row group at a time."""
         parts, offset = [], 0
-        for g in range(self.file.num_row_groups):
-            df = self._read([g], columns)
+        for df in self.blocks(columns):
             parts.append(df.iloc[(-offset) % step::step])
             offset += len(df)
         return pd.concat(parts, ignore_index=True) if parts else self._read([], columns)
@@ -117,5 +116,6 @@ class MotionTable:
         return (t.iloc[1] - t.iloc[0]).total_seconds()
 
 
-def _placed(df: pd.DataFrame) -> np.ndarray:
+def placed(df: pd.DataFrame) -> np.ndarray:
+    """Rows with a finite fix (lat and lon)."""
     return np.isfinite(df["lat"].to_numpy(float)) & np.isfinite(df["lon"].to_numpy(float))

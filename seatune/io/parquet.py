@@ -39,15 +39,24 @@ def field_metadata(field: pa.Field, spec: str) -> dict[str, str]:
     return {"unit": unit, **({"description": description.strip()} if description.strip() else {})}
 
 
-def write_table(df: pd.DataFrame, path: str | Path, units: dict[str, str], metadata: dict | None = None) -> Path:
-    """Write `df` to `path` atomically; every column's unit (and description) goes in its field metadata."""
-    missing = [c for c in df.columns if c not in units]
+def _unit_fields(table: pa.Table, units: dict[str, str]) -> list[pa.Field]:
+    """The table's fields with each column's unit (and description) in their metadata."""
+    missing = [f.name for f in table.schema if f.name not in units]
     if missing:
         raise ValueError(f"no unit given for columns {missing}")
+    return [f.with_metadata(field_metadata(f, units[f.name])) for f in table.schema]
+
+
+def _provenance(metadata: dict | None) -> str:
+    return json.dumps({"version": seatune.__version__, **(metadata or {})})
+
+
+def write_table(df: pd.DataFrame, path: str | Path, units: dict[str, str], metadata: dict | None = None) -> Path:
+    """Write `df` to `path` atomically; every column's unit (and description) goes in its field metadata."""
     table = pa.Table.from_pandas(df, preserve_index=False)
-    fields = [f.with_metadata(field_metadata(f, units[f.name])) for f in table.schema]
+    fields = _unit_fields(table, units)
     meta = dict(table.schema.metadata or {})
-    meta[b"seatune"] = json.dumps({"version": seatune.__version__, **(metadata or {})}).encode()
+    meta[b"seatune"] = _provenance(metadata).encode()
     table = table.cast(pa.schema(fields, metadata=meta))
     path = Path(path)
     with atomic_path(path) as tmp:
@@ -59,36 +68,32 @@ class TableWriter:
     """Row groups appended one DataFrame at a time (the same columns each time); see :func:`table_writer`."""
 
     def __init__(self, path: Path, units: dict[str, str]):
-        self.path, self.units, self.rows = path, units, 0
+        self.path, self.units = path, units
         self.metadata: dict = {}
         self._writer: pq.ParquetWriter | None = None
         self._schema: pa.Schema | None = None
 
     def write(self, df: pd.DataFrame) -> None:
         if self._schema is None:
-            missing = [c for c in df.columns if c not in self.units]
-            if missing:
-                raise ValueError(f"no unit given for columns {missing}")
             table = pa.Table.from_pandas(df, preserve_index=False)
-            self._schema = pa.schema([f.with_metadata(field_metadata(f, self.units[f.name])) for f in table.schema],
+            self._schema = pa.schema(_unit_fields(table, self.units),
                                      metadata={k: v for k, v in (table.schema.metadata or {}).items()
                                                if k != b"pandas"})
             self._writer = pq.ParquetWriter(self.path, self._schema)
         self._writer.write_table(pa.Table.from_pandas(df, schema=self._schema, preserve_index=False))
-        self.rows += len(df)
 
     def close(self) -> None:
         if self._writer is None:
             raise ValueError(f"{self.path}: no rows written")
-        self._writer.add_key_value_metadata({"seatune": json.dumps({"version": seatune.__version__,
-                                                                     **self.metadata})})
+        self._writer.add_key_value_metadata({"seatune": _provenance(self.metadata)})
         self._writer.close()
 
 
 @contextmanager
 def table_writer(path: str | Path, units: dict[str, str]):
     """Write a table in pieces, atomically: ``with table_writer(p, units) as w: w.write(df); w.metadata = {...}``.
-    Each `write` is one row group, so a reader can take a time range without the rest (:func:`read_rows`)."""
+    Each `write` is one row group, so a reader can take a time range without the rest
+    (:class:`seatune.io.motion_table.MotionTable`)."""
     path = Path(path)
     with atomic_path(path) as tmp:
         w = TableWriter(tmp, units)
@@ -99,20 +104,6 @@ def table_writer(path: str | Path, units: dict[str, str]):
                 w._writer.close()
             raise
         w.close()
-
-
-def read_rows(path: str | Path, start=None, end=None, columns=None, time: str = "time") -> pd.DataFrame:
-    """Rows with `start` ≤ time ≤ `end` (either may be None), reading only the row groups that hold them."""
-    filters = ([(time, ">=", pd.Timestamp(start))] if start is not None else []) + (
-        [(time, "<=", pd.Timestamp(end))] if end is not None else [])
-    return pq.read_table(path, columns=columns, filters=filters or None).to_pandas()
-
-
-def iter_row_groups(path: str | Path, columns=None):
-    """The table one row group at a time (DataFrames)."""
-    f = pq.ParquetFile(path)
-    for k in range(f.num_row_groups):
-        yield f.read_row_group(k, columns=columns).to_pandas()
 
 
 def column_units(path: str | Path) -> dict[str, str]:

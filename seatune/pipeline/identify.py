@@ -551,13 +551,9 @@ def _wave_on(w: dict, omega: np.ndarray) -> np.ndarray:
     grid, wave = w.get("wave_omega", w["omega"]), w["wave"]
     if np.array_equal(omega, grid):
         return wave
-    at = np.searchsorted(omega, grid) if len(grid) else np.zeros(0, int)
-    if len(grid) and at[-1] < len(omega) and np.array_equal(omega[at], grid) and (np.diff(at) == 1).all():
-        out = np.zeros((len(omega), wave.shape[1]))  # a grid holding the held bins in a row: placed exactly
-        out[at[0]:at[-1] + 1] = wave
-        return out
     if not len(grid):
         return np.zeros((len(omega), len(w["dirs"])))
+    # exact on the held bins (np.interp at a node returns its value), zero beyond them
     return np.stack([np.interp(omega, grid, wave[:, k], left=0, right=0) for k in range(wave.shape[1])], axis=1)
 
 

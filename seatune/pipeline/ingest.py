@@ -210,7 +210,7 @@ def stream_motions(run: Run, spool: Spool, order: list[int], writer, rename: dic
     the last IMU attitude dropped, then angles gated. Returns the counts and what the checks and the hindcast
     need: finite source fields, first/last time, a thinned track (the fixes around each whole hour)."""
     from seatune.physics.plausibility import gate_angles
-    from seatune.pipeline.motions import resample
+    from seatune.pipeline.motions import IngestReport, resample
 
     fs, gap = run.spec.ingest.rate_hz, run.spec.ingest.max_gap_s
     dt = int(round(1e9 / fs))
@@ -218,27 +218,21 @@ def stream_motions(run: Run, spool: Spool, order: list[int], writer, rename: dic
     thr = max([gap * 1e9, *(1.5 * p for p in spool.periods.values())])
     margin = int(max(60e9, 3 * thr))
     columns = spool.columns()
-    counts: dict[str, int] = {}
+    resampled, masked = IngestReport(), IngestReport()  # counts summed over the pieces
     state = {"record": -1, "last": None, "started": False, "pending": [], "outside": 0, "rows": 0, "first": None,
-             "final": None, "records": set(), "finite": set(), "angles": {}, "track": [], "any_lat": False}
-
-    def add(c):
-        for k, v in c.items():
-            counts[k] = counts.get(k, 0) + int(v)
+             "final": None, "records": set(), "finite": set(), "finite_angles": set(), "track": [],
+             "any_lat": False}
 
     def emit(df):
         if not len(df):
             return
         df = df.rename(columns=rename)
         df, angles = gate_angles(df, limits)
-        for c, k in angles.items():
-            state["angles"][c] = state["angles"].get(c, 0) + k
+        masked.add(angles)
         if "lat" in df:
             state["track"].append(_track_points(df))
             state["any_lat"] |= bool(np.isfinite(df["lat"].to_numpy()).any())
-        for c in ("roll", "pitch"):
-            if c in df and df[c].notna().any():
-                state["finite"].add(f"angle {c}")
+        state["finite_angles"].update(c for c in ("roll", "pitch") if c in df and df[c].notna().any())
         state["first"] = df["time"].iloc[0] if state["first"] is None else state["first"]
         state["final"] = df["time"].iloc[-1]
         state["rows"] += len(df)
@@ -260,7 +254,7 @@ def stream_motions(run: Run, spool: Spool, order: list[int], writer, rename: dic
         c.pop("records", None)
         c.pop("gaps_split", None)
         c["samples_masked"] = c.get("samples_masked", 0) + len(df) * sum(len(a) > 0 for a in absent)
-        add(c)
+        resampled.add(c)
         for col in columns:
             if col not in df:
                 df[col] = np.nan
@@ -288,17 +282,18 @@ def stream_motions(run: Run, spool: Spool, order: list[int], writer, rename: dic
             state["pending"].append(df)
     state["outside"] += sum(len(p) for p in state["pending"])
     records = state["record"] + 1
-    counts = {"records": records, "gaps_split": max(records - 1, 0), **counts}
+    counts = {"records": records, "gaps_split": max(records - 1, 0), **resampled.counts}
     if state["started"]:
         counts["samples_outside_imu"] = state["outside"]
-    state["counts"] = counts
+    state["counts"], state["angles"] = counts, masked.counts
     return state
 
 
 def _track_points(df: pd.DataFrame) -> pd.DataFrame:
     """The fixes :func:`build_waves` interpolates between: first, last, and the two around each whole hour."""
-    ok = np.isfinite(df["lat"].to_numpy()) & np.isfinite(df["lon"].to_numpy())
-    tr = df.loc[ok, ["time", "lat", "lon"]]
+    from seatune.io.motion_table import placed
+
+    tr = df.loc[placed(df), ["time", "lat", "lon"]]
     if not len(tr):
         return tr
     hours = pd.date_range(tr["time"].iloc[0].ceil("h"), tr["time"].iloc[-1].floor("h"), freq="h")
@@ -391,8 +386,8 @@ def ingest(run: Run, model, echo=print, force: bool = False) -> dict:
     topics = {"imu_topic": t.imu, "fix_topic": t.gnss_fix, "vel_topic": t.gnss_vel or t.odometry}
     mounting, sensor = imu_mounting(run, model)
     limits = Limits(**run.spec.ingest.plausibility.model_dump())
-    report = IngestReport()
-    gated, gate_warnings, logs, spans = {}, [], [], []
+    report, gated = IngestReport(), IngestReport()
+    gate_warnings, logs, spans = [], [], []
     run.run_dir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix=".ingest-", suffix=".tmp", dir=run.run_dir) as folder:
         spool = Spool(folder)
@@ -400,7 +395,7 @@ def ingest(run: Run, model, echo=print, force: bool = False) -> dict:
             log = read_one(run, path, spec)
             spans.append(time_span(log))
             c, w = gate_logs([log], limits)  # implausible samples masked before they are resampled
-            gated = {key: gated.get(key, 0) + c.get(key, 0) for key in gated | c}
+            gated.add(c)
             gate_warnings += w
             spool.add(k, log_sources(log, report, frame=run.spec.ingest.frame, mounting=mounting, sensor=sensor,
                                      **topics))
@@ -417,7 +412,7 @@ def ingest(run: Run, model, echo=print, force: bool = False) -> dict:
             streamed = stream_motions(run, spool, order, writer, rename, limits)
             _check_source_fields(run, logs, streamed["finite"], set(spool.columns()))
             for c in streamed["angles"]:
-                if f"angle {c}" not in streamed["finite"]:
+                if c not in streamed["finite_angles"]:
                     raise UserError(str(run.path), "ingest.plausibility.max_angle_deg", f"every {c} sample is "
                                     f"beyond ±{limits.max_angle_deg:g}°: an IMU mounted rotated (give "
                                     "sensors.<tag>.rotation in the vessel YAML) or a wrong frame (ingest.frame)")
@@ -428,7 +423,7 @@ def ingest(run: Run, model, echo=print, force: bool = False) -> dict:
                 raise _no_position(logs)
             counts = dict(report.counts) | overlap_counts(streamed["counts"])
             angles = streamed["angles"]
-            counts.update(gated | {f"implausible attitude {c}": k for c, k in angles.items()})
+            counts.update(gated.counts | {f"implausible attitude {c}": k for c, k in angles.items()})
             warnings = list(report.notes) + list(report.warnings)
             warnings += gate_warnings + ([f"attitude beyond ±{limits.max_angle_deg:g}° masked: "
                                           + ", ".join(f"{c} {k:,}" for c, k in angles.items())] if angles else [])

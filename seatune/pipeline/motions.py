@@ -315,7 +315,7 @@ def repair_time(table: pd.DataFrame | TopicTable) -> tuple[pd.DataFrame | TopicT
     dup[1:] = sorted_ns[1:] == sorted_ns[:-1]
     keep = order[~dup]
     if len(keep) == len(df) and (np.diff(keep) == 1).all():  # already in order: no copy
-        out = df.reset_index(drop=True) if not isinstance(df.index, pd.RangeIndex) or df.index.start else df
+        out = df if df.index.equals(pd.RangeIndex(len(df))) else df.reset_index(drop=True)
     else:  # column by column: DataFrame.iloc would first join the columns into one block (3× the memory)
         out = pd.DataFrame({c: df[c].take(keep).reset_index(drop=True) for c in df.columns}, copy=False)
     out.attrs = dict(df.attrs)

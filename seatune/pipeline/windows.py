@@ -107,7 +107,7 @@ class _Scan:
     def __init__(self, waves, settings: WindowSettings, fs: float):
         self.waves, self.settings, self.fs = waves, settings, fs
         self.n = max(1, int(round(settings.sog_smoothing_s * fs)))
-        self.n_min, self.n_max = int(settings.min_duration_s * fs), int(settings.max_duration_s * fs)
+        self.n_max = int(settings.max_duration_s * fs)
         self.out: list[Candidate] = []
         self.record = None
 
@@ -135,7 +135,7 @@ class _Scan:
             return
         self._smooth(final=True)
         self._close_open(final=True)
-        self._close_run(final=True)
+        self._close_run()
         self.record = None
 
     # (A) ------------------------------------------------------------------------------------------------
@@ -186,7 +186,7 @@ class _Scan:
     # (C) ------------------------------------------------------------------------------------------------
     def _segment(self, slow: bool, parts: list[pd.DataFrame]) -> None:
         if self.run_value is not None and slow != self.run_value:
-            self._close_run(final=True)
+            self._close_run()
         if self.run_value is None:
             self.run_value, self.buf, self.moving = slow, [], None
         if slow:
@@ -201,7 +201,7 @@ class _Scan:
             self.moving["sums"] += sums
             self.moving["end"] = part["time"].iloc[-1]
 
-    def _close_run(self, final: bool) -> None:
+    def _close_run(self) -> None:
         if self.run_value is None:
             return
         if self.run_value:
