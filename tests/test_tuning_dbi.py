@@ -254,6 +254,22 @@ def test_idw_coverage_is_reported_not_asserted():
     assert 0.0 <= cov_idw[0] <= 1.0
 
 
+@pytest.mark.parametrize("likelihood", ["gaussian", "idw"])
+def test_an_observation_with_its_total_variance_is_bayes_rule_without_model_error(likelihood):
+    """variance_is_total (a measured ω_n against the model's own modes): Gaussian with that variance alone —
+    no 5 % model error, whatever the likelihood setting — and not screened out for a spread below α0."""
+    model = AnalyticModel(names=NAMES[:1])
+    dbi = DBI([X], database_points=61, pmf_points=61, likelihood=likelihood, model_error=0.05, screening_alpha=0.9)
+    true = model.predict_paired(np.array([[0.7]]), np.array([[2.0]]))[0]
+    obs = Observation("modes", model.names, true, (0.01 * true) ** 2, 0.0, variance_is_total=True)
+    post = dbi.update(model, obs, certain())
+    assert post.used == ("roll:sigma",) and dbi.alpha_["roll:sigma"] < 0.9
+    grid = np.linspace(-3, 3, 61)
+    pred = model.predict_paired(grid[:, None], np.full((61, 1), 2.0))
+    expected = _plain_posterior(grid, 1.0, pred, obs.z, lambda p, z: np.exp(-((p - z) ** 2) / (2 * obs.variance)))
+    assert_allclose(dbi.joint_, expected, rtol=1e-4, atol=1e-12)  # tails below 1e-100 differ in float32
+
+
 def test_screening_drops_a_channel_insensitive_to_the_parameters():
     model = AnalyticModel(parameter_names=("x", "y"))
     dbi = DBI([X, Y])

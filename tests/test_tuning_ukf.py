@@ -375,6 +375,8 @@ def test_measurement_variance_a7_rules():
     np.testing.assert_allclose(UKF(A6_PARAMS, use_sampling_variance=False).measurement_variance(obs), 0.02 * z**2)
     with pytest.raises(ValueError, match="zero measurement variance"):
         UKF(A6_PARAMS).measurement_variance(Observation("w", ("x:sigma",), np.zeros(1), np.zeros(1), 1.0))
+    total = Observation("modes", ("roll:omega_n",), np.array([0.5]), np.array([1e-6]), 0.0, variance_is_total=True)
+    np.testing.assert_allclose(UKF(A6_PARAMS, **kw).measurement_variance(total), [1e-6])  # no 2 % of z², no floor
 
 
 @pytest.mark.parametrize("bounded", [True, False])

@@ -326,7 +326,8 @@ class DBI:
         mean_prediction = np.einsum("rsj,s->rj", predicted, hyp_weights)
         alpha = mean_prediction.std(axis=0, ddof=1) / np.maximum(np.abs(z), np.finfo(float).tiny)
         self.alpha_ = dict(zip(names, alpha.tolist(), strict=True))
-        keep = alpha >= self.screening_alpha
+        total = observation.variance_is_total
+        keep = alpha > 0 if total else alpha >= self.screening_alpha
         used = tuple(n for n, k in zip(names, keep, strict=True) if k)
 
         sea_post, scale = None, None
@@ -336,14 +337,14 @@ class DBI:
             for _ in range(_MAX_WIDENINGS + 1):
                 log_prior = self._log(self.joint_)
                 log_like, log_evidence, scale = self._log_likelihood(predicted, z, variance, hyp_weights,
-                                                                     self.power, log_prior, scaled, r2)
+                                                                     self.power, log_prior, scaled, r2, total)
                 posterior = self._bayes(log_prior, log_like)  # A2 eqs. 12–13, A4 eq. 6
                 if not (self.regrid and self._regrid(posterior, widen_prior=True)):
                     break  # else the prior was widened where the posterior reached a zoomed edge: again
             p2 = self.power_sea_state_dependent
             if p2 is not None and dependent:
                 # A4 §2.5 two-step: same prior, p2 for the sea-state-dependent marginals, p for the others.
-                log_like_2, _, _ = self._log_likelihood(predicted, z, variance, hyp_weights, p2, None)
+                log_like_2, _, _ = self._log_likelihood(predicted, z, variance, hyp_weights, p2, None, total=total)
                 posterior_2 = self._bayes(log_prior, log_like_2)
                 joint = posterior.sum(axis=dependent, keepdims=True)
                 for axis in dependent:
@@ -396,8 +397,8 @@ class DBI:
             raise ValueError("forward model returned non-finite predictions on the database grid")
         return tuple(names[k] for k in keep), z[keep], variance[keep], predicted[..., keep]
 
-    def _gaussian_variance(self, z: np.ndarray, variance: np.ndarray) -> np.ndarray:
-        v = variance + (self.model_error * z) ** 2
+    def _gaussian_variance(self, z: np.ndarray, variance: np.ndarray, total: bool = False) -> np.ndarray:
+        v = variance if total else variance + (self.model_error * z) ** 2
         bad = ~(v > 0)
         if np.any(bad):
             raise ValueError(f"gaussian likelihood needs a positive variance; got {v[bad]} "
@@ -444,13 +445,15 @@ class DBI:
         c = ((on_grid * on_grid) @ w).astype(float)
         return -0.5 * (a - r2 * b * b / (1.0 + r2 * c)) - 0.5 * np.log1p(r2 * c), 1.0 + b / (1.0 / r2 + c)
 
-    def _log_likelihood(self, predicted, z, variance, hyp_weights, power, log_prior, scaled=None, r2=0.0):
+    def _log_likelihood(self, predicted, z, variance, hyp_weights, power, log_prior, scaled=None, r2=0.0,
+                        total=False):
         """Mixed log-likelihood on the PMF grid; given the log prior, also log Σ_φ PMF(φ) L_s(φ) per hypothesis
-        θ_s (for p(θ_s | z)) and, with a common scale error, its posterior mean E[a | z]."""
+        θ_s (for p(θ_s | z)) and, with a common scale error, its posterior mean E[a | z]. `total`: the variance
+        is the whole error (Gaussian, no model error, whatever the likelihood setting)."""
         n_hyp = predicted.shape[1]
-        joint = self.hypothesis_mixing == "joint" or n_hyp == 1
-        if self.likelihood == "gaussian" and joint:
-            v = self._gaussian_variance(z, variance)
+        joint = self.hypothesis_mixing == "joint" or n_hyp == 1 or total
+        if (self.likelihood == "gaussian" or total) and joint:
+            v = self._gaussian_variance(z, variance, total)
 
             def grid_ll(s):
                 return self._gaussian_grid_log_likelihood(predicted[:, s, :], z, v, scaled, r2)

@@ -127,3 +127,34 @@ class WindowStatistics:
         full = self._statistics(self._spectra(self.power(phi), self.wave_weights(theta)))  # (n, h = n, m)
         idx = np.arange(full.shape[0])
         return full[idx, idx]
+
+
+class ModeFrequencies:
+    """ForwardModel of measured natural frequencies ("roll:omega_n", …): the coupled undamped roots of
+    det(C − ω²(M + A(ω))) of each loading φ (physics/modes.py), the same for every sea-state hypothesis."""
+
+    sea_state_names = ()
+
+    def __init__(self, vessel, parameter_names, modes):
+        from seatune.physics.modes import MODE_NAMES
+
+        self.vessel = vessel
+        self.parameter_names = tuple(parameter_names)
+        self.modes = tuple(modes)
+        self.names = tuple(f"{m.lower()}:omega_n" for m in self.modes)
+        self._cols = [MODE_NAMES.index(m) for m in self.modes]
+
+    def omega_n(self, phi: np.ndarray) -> np.ndarray:
+        """(n, m) rad/s; a mode without restoring stiffness (GM ≤ 0) is 0, its limit."""
+        from seatune.physics.modes import coupled_modes
+
+        phi = np.atleast_2d(np.asarray(phi, dtype=float))
+        loading = self.vessel.loading(**{name: phi[:, k] for k, name in enumerate(self.parameter_names)})
+        return np.nan_to_num(coupled_modes(self.vessel.db, loading).omega[:, self._cols], nan=0.0)
+
+    def predict(self, phi: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        om = self.omega_n(phi)
+        return np.repeat(om[:, None, :], np.atleast_2d(theta).shape[0], axis=1)
+
+    def predict_paired(self, phi: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        return self.omega_n(phi)

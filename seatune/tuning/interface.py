@@ -63,6 +63,8 @@ class Observation:
     used by the calibrated Gaussian likelihood (DBI) and as a floor for R (UKF).
     common_scale_variance: relative variance of a factor common to every σ̂ of the window — one sea realisation
     drives all channels, so their sampling errors are largely one factor (the realised Hs), not independent.
+    variance_is_total: the variance is the whole error of z (e.g. a measured natural frequency against the model's
+    own modes): the backends add no model error or R fraction, screen nothing out and use a Gaussian likelihood.
     """
 
     window_id: str
@@ -71,6 +73,7 @@ class Observation:
     variance: np.ndarray
     duration_s: float
     common_scale_variance: float = 0.0
+    variance_is_total: bool = False
 
     @classmethod
     def of_one_sea(cls, window_id: str, names, z, variance, duration_s: float) -> Observation:

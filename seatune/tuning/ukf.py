@@ -255,6 +255,11 @@ class UKF:
         """
         names = tuple(observation.names)
         z = np.asarray(observation.z, dtype=float)
+        if observation.variance_is_total:
+            r = np.asarray(observation.variance, dtype=float)
+            if not np.all(r > 0):
+                raise ValueError(f"UKF: window {observation.window_id!r}: a total variance must be > 0")
+            return r
         frac = _per_name(self.r_fraction, names, DEFAULT_R_FRACTION)
         r = np.maximum(frac * z**2, _per_name(self.r_floor, names, 0.0))
         if self.use_sampling_variance:
