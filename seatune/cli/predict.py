@@ -28,10 +28,10 @@ def predict(run_yaml, forecast, forecast_format, force):
     from seatune.io.hindcast_readers import read_hindcast
     from seatune.io.run_yaml import Run
     from seatune.pipeline.predict import check_settings, predict_stage, summary_line
-    from seatune.pipeline.vessel import open_vessel
+    from seatune.pipeline.vessel import open_run_vessel
 
     run = Run(run_yaml)
-    vessel = open_vessel(run.vessel_path)
+    vessel = open_run_vessel(run)
     check_settings(run, vessel)  # a bad predict block fails before any stage runs
     if not Path(forecast).exists():
         raise UserError(str(forecast), None, "forecast file not found")

@@ -131,11 +131,11 @@ def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = (), progress=N
     from seatune.pipeline.report import report_stage
     from seatune.pipeline.sea import sea_stage
     from seatune.pipeline.tune import tune_stage
-    from seatune.pipeline.vessel import open_vessel
+    from seatune.pipeline.vessel import open_run_vessel
     from seatune.pipeline.windows import windows_stage
 
     run = Run(run_yaml)
-    model = open_vessel(run.vessel_path)
+    model = open_run_vessel(run)
     if ORDER.index(last) >= ORDER.index("tune"):
         from seatune.pipeline.tune import tuning_parameters
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from seatune.errors import UserError
@@ -40,6 +40,26 @@ class VesselModel:
             raise UserError(str(self.source), "loading", str(err)) from None
         self.check_in_database(loading)
         return loading
+
+    def with_loading(self, **values) -> VesselModel:
+        """The same vessel with values of its YAML loading replaced (the loading computer's `identify.known`):
+        the condition every untuned parameter then keeps."""
+        if not values:
+            return self
+        from seatune.io.vessel_yaml import LoadingSpec
+
+        data = self.spec.loading.model_dump()
+        for key, val in values.items():
+            if key in ("mass", "displacement"):
+                data["mass"] = data["displacement"] = None
+            data[key] = float(val)
+        try:
+            spec = self.spec.model_copy(update={"loading": LoadingSpec(**data)})
+        except ValueError as err:
+            raise UserError(str(self.source), "loading", str(err).splitlines()[-1]) from None
+        out = replace(self, spec=spec)
+        out.check_in_database(out.base_loading)
+        return out
 
     def check_in_database(self, loading: Loading) -> None:
         try:
@@ -120,6 +140,13 @@ def capytaine_files(files: list[str] | str, base: Path) -> list[Path]:
             raise UserError(str(base / pattern), "hull.capytaine.files", "no such file")
         out += [Path(f) for f in found]
     return out
+
+
+def open_run_vessel(run) -> VesselModel:
+    """The run's vessel with the run YAML's `identify.known` loading values (mass, zcg, … from the loading
+    computer) in its base condition: every stage then models the untuned parameters as known on board instead
+    of at the vessel YAML's design values (a KG 0.5 m off the YAML's would otherwise be tuned into gmt_fs)."""
+    return open_vessel(run.vessel_path).with_loading(**run.spec.identify.known)
 
 
 def open_vessel(path: str | Path) -> VesselModel:
