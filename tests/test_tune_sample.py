@@ -39,9 +39,10 @@ def test_tune_runs_end_to_end_and_improves_held_out_prediction(filtered, backend
     assert "identify: up to date" in res.stdout and f"tune: {backend} on 2 windows" in res.stdout
     out = filtered / "run"
     hist = pd.read_parquet(out / "tuning_history.parquet")
-    assert set(hist.parameter) == {"gmt_fs", "r44", "beta44"} and hist["update"].max() == 2
+    assert set(hist.parameter) == {"gmt_fs", "r44", "beta44"} and hist["update"].max() == 3
     assert (hist.backend == backend).all()
-    last = hist[hist["update"] == 2].set_index("parameter")
+    assert set(hist.loc[hist["update"] == 1, "window_id"]) == {"natural_frequencies"}  # identify's ω_n first
+    last = hist[hist["update"] == 3].set_index("parameter")
     first = hist[hist["update"] == 0].set_index("parameter")
     assert last.loc["r44", "std"] < first.loc["r44", "std"]  # the roll data inform r44
     truth = yaml.safe_load((SAMPLE / "truth.yaml").read_text())["loading"]
@@ -64,6 +65,14 @@ def test_tune_runs_end_to_end_and_improves_held_out_prediction(filtered, backend
 
     model = open_vessel(tuned)  # usable as input to every command
     assert model.spec.loading.r44 == pytest.approx(last.loc["r44", "mean"])
+    known = yaml.safe_load(path.read_text())["identify"]["known"]  # the loading computer's values, kept
+    assert model.spec.loading.mass == pytest.approx(float(known["mass"])) and model.spec.loading.zcg == known["zcg"]
+    from seatune.physics.modes import coupled_modes
+    from seatune.report.summary import primary_natural_frequencies
+
+    roll = primary_natural_frequencies(pd.read_parquet(out / "natural_frequencies.parquet")).loc["Roll"]
+    tuned_roll = float(coupled_modes(model.db, model.base_loading).omega[0, 1])
+    assert roll["ci_low"] <= tuned_roll <= roll["ci_high"]  # the tuned model keeps the measured roll mode
 
 
 @pytest.mark.parametrize("backend", ["dbi", "ukf"])
@@ -93,7 +102,8 @@ def test_heading_rules_choose_the_measurements_per_window(filtered):
     res = run_cli("tune", path, "--force", "tune")
     assert res.returncode == 0, res.stderr
     hist = pd.read_parquet(filtered / "run" / "tuning_history.parquet")
-    used = hist[hist["update"] > 0].groupby("update")["channels_used"].first()
+    windows = hist[(hist["update"] > 0) & (hist["window_id"] != "natural_frequencies")]
+    used = windows.groupby("update")["channels_used"].first()
     allowed = [{f"{c}:sigma" for c in r["channels"]} for r in rules]
     assert all(set(u.split(",")) in allowed for u in used)  # each window used exactly one rule's measurements
     path = sample_run(filtered, heading_rules=[{"beta_deg": [0, 180], "channels": ["moonpool"]}])
@@ -128,3 +138,20 @@ def test_prior_outside_bounds_exits_2(tmp_path):
     assert res.returncode == 2
     assert "priors.r44" in res.stderr or "r44" in res.stderr
     assert len(res.stderr.strip().splitlines()) == 1
+
+
+def test_a_rewritten_vessel_yaml_opens_elsewhere_with_the_known_loading(tmp_path):
+    """tuned_vessel.yaml / augmented_vessel.yaml are written into the run dir: the per-draft Capytaine files the
+    barge names relative to its own folder must still be found, and the loading computer's values kept."""
+    from seatune.errors import UserError
+    from seatune.pipeline.tune import vessel_yaml_data
+    from seatune.pipeline.vessel import open_vessel
+
+    vessel = open_vessel(ROOT / "configs/vessels/barge.yaml").with_loading(mass=3.75e6, zcg=6.8)
+    assert vessel.base_loading.zcg[0] == 6.8 and vessel.base_loading.mass[0] == pytest.approx(3.75e6)
+    (tmp_path / "elsewhere.yaml").write_text(yaml.safe_dump(vessel_yaml_data(vessel)))
+    again = open_vessel(tmp_path / "elsewhere.yaml")
+    assert again.spec.loading.mass == pytest.approx(3.75e6) and again.spec.loading.zcg == 6.8
+    np.testing.assert_array_equal(again.db.added_mass, vessel.db.added_mass)
+    with pytest.raises(UserError, match="loading.mass"):
+        vessel.with_loading(mass=9.0e6)  # deeper than the deepest Capytaine draft

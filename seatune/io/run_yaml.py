@@ -220,6 +220,7 @@ class TuningSettings(Strict):
     channels: list[str] | None = None  # default: every filtered channel the vessel defines
     statistics: list[Literal["sigma", "tz"]] = ["sigma"]
     holdout_every: Annotated[int, Field(ge=0)] = 3  # every k-th accepted window is held out for validation (0: none)
+    natural_frequencies: bool = True  # identify's ω_n (with their intervals) enter as one more observation
     dbi: DbiSettings = DbiSettings()
     ukf: UkfSettings = UkfSettings()
     damping_gpr: DampingGprSettings = DampingGprSettings()

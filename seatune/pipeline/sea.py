@@ -242,6 +242,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
             "sea": settings.model_dump(),
             "uncertainty": run.spec.hindcast.uncertainty.model_dump(),
             "parameters": list(run.spec.tuning.parameters),
+            "known": run.spec.identify.known,
         },
     )
     out_roll = run.artefact(ROLL_FREE_FILE)
@@ -401,6 +402,22 @@ def read_sea_states(run, roll_free: bool = False) -> pd.DataFrame | None:
     if not run.spec.sea.estimate or not path.exists():
         return None
     return pd.read_parquet(path)
+
+
+ROLL_PARAMETERS = ("gmt_fs", "r44", "beta44", "zcg", "ycg")  # loading parameters the roll channels inform
+
+
+def sea_for_tuning(run) -> pd.DataFrame | None:
+    """The sea tune fits the loading against: per window the fit without the roll channels where there is one and
+    roll parameters are tuned (the roll channels then inform the vessel only, not also the sea they are compared
+    with: fitted through the prior's roll RAO the sea absorbs part of its damping error), else the full fit."""
+    full = read_sea_states(run)
+    if full is None or not set(run.spec.tuning.parameters) & set(ROLL_PARAMETERS):
+        return full
+    free = read_sea_states(run, roll_free=True)
+    if free is None or free.empty:
+        return full
+    return pd.concat([free, full[~full["window_id"].isin(free["window_id"])]], ignore_index=True)
 
 
 def estimated_wave_spectrum(sea: pd.DataFrame, window_id: str, omega: np.ndarray):

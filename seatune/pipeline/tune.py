@@ -11,6 +11,7 @@ the Gaussian itself for the UKF's weather update).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -142,9 +143,10 @@ def effective_dof(S: np.ndarray, omega: np.ndarray, duration_s: float) -> float:
     return float(duration_s * m0**2 / (np.pi * np.trapezoid(S**2, omega)))
 
 
-def window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, names, sea=None):
+def window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, names, sea=None, given_sea=None):
     """(window_id, ForwardModel, Observation, SeaState) per accepted window, in time order; the sea is the
-    estimate of sea_states.parquet (`sea`) where it holds the window, else the hindcast's."""
+    estimate of sea_states.parquet (`sea`) where it holds the window, else the hindcast's; `given_sea(row,
+    omega)` → (S(ω, D), D, WindowSea) replaces both (the bank's true sea, the reference of validation)."""
     from seatune.pipeline.identify import mean_wave_direction, window_wave_spectrum
     from seatune.pipeline.sea import window_uncertainty
     from seatune.tuning.forward import WindowStatistics
@@ -158,10 +160,13 @@ def window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, name
         sp = spectra[spectra["window_id"] == row.window_id]
         mid = row.start + (row.end - row.start) / 2
         at = motions.row_at(mid, ["lat", "lon"])  # the grid row at mid-window
-        wave, dirs, _ = window_wave_spectrum(hc, row, at["lat"], at["lon"], db.omega, sea)
+        if given_sea is not None:
+            wave, dirs, ws = given_sea(row, db.omega)
+        else:
+            wave, dirs, _ = window_wave_spectrum(hc, row, at["lat"], at["lon"], db.omega, sea)
+            ws = window_uncertainty(sea, row.window_id, unc, row)  # the estimated sea's, else the hindcast's
         d_dir = direction_step(dirs)
         hs0 = 4.0 * np.sqrt(np.trapezoid(wave.sum(axis=1) * d_dir, db.omega))
-        ws = window_uncertainty(sea, row.window_id, unc, row)  # the estimated sea's, else the hindcast's
         theta0 = np.array([hs0, ws.tp, mean_wave_direction(wave, dirs, row.heading_deg)])
         std = np.array([ws.hs_rel_std * hs0, ws.tp_std_s, ws.dir_std_deg])
         cutoff = {c: 2 * np.pi * float(st.loc[c, "cutoff_hz"]) for c in st.index}
@@ -179,6 +184,37 @@ def window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, name
         obs = Observation.of_one_sea(str(row.window_id), names, z, var, row.duration_s)
         out.append((str(row.window_id), model, obs, sea_state(theta0, std)))
     return out
+
+
+MODES_SHIFTED_BY = {"anti_roll_tank": "Roll", "moonpool": "Heave"}  # vessel effects whose peak is not the bare mode
+
+
+def mode_inputs(run, vessel, parameters):
+    """identify's natural frequencies (window 'all', per DOF with a value) as one sea-independent observation:
+    z = ω_n, variance = (CI half-width / z_conf)², predicted by the coupled modes of the loading. σ̂ alone leaves
+    r44 and GMT on one ridge and the tuned roll mode free to drift by ±8 % from the measured one; the measured
+    ω_n pins the ridge. None without natural_frequencies.parquet or a mode with a finite interval."""
+    from scipy.stats import norm
+
+    from seatune.report.summary import primary_natural_frequencies
+    from seatune.tuning.forward import ModeFrequencies
+    from seatune.tuning.interface import Observation, SeaState
+
+    path = run.artefact("natural_frequencies.parquet")
+    if not path.exists():
+        return None
+    best = primary_natural_frequencies(pd.read_parquet(path))
+    shifted = {MODES_SHIFTED_BY[e["kind"]] for e in vessel.spec.effects if e["kind"] in MODES_SHIFTED_BY}
+    z_conf = norm.ppf(0.5 + run.spec.identify.confidence / 2)
+    half = (best["ci_high"] - best["ci_low"]) / 2
+    ok = np.isfinite(best["omega_n"]) & np.isfinite(half) & (half > 0) & ~best.index.isin(list(shifted))
+    if not ok.any():
+        return None
+    modes = list(best.index[ok])
+    model = ModeFrequencies(vessel, [p.name for p in parameters], modes)
+    obs = Observation("natural_frequencies", model.names, best.loc[modes, "omega_n"].to_numpy(float),
+                      (half[ok].to_numpy(float) / z_conf) ** 2, 0.0, variance_is_total=True)
+    return model, obs, SeaState.certain((), [])
 
 
 def history_rows(update: int, window_id: str, backend: str, post) -> list[dict]:
@@ -199,13 +235,23 @@ def history_rows(update: int, window_id: str, backend: str, post) -> list[dict]:
 def vessel_yaml_data(vessel) -> dict:
     """The vessel YAML as data, with the files it names made absolute (it is rewritten into the run dir)."""
     data = yaml.safe_load(Path(vessel.source).read_text())
+    data["loading"] = vessel.spec.loading.model_dump(exclude_none=True)  # with the run's known values
+    base = Path(vessel.source).parent
+
+    def absolute(value):  # a path, a glob or a list of them (hull.capytaine.files)
+        if isinstance(value, list):
+            return [absolute(v) for v in value]
+        return str((base / value).resolve()) if isinstance(value, str) else value
+
     if data.get("hydro_database"):
-        data["hydro_database"] = str((Path(vessel.source).parent / data["hydro_database"]).resolve())
-    if isinstance(data.get("hull"), dict):
-        for key in ("mesh", "path"):
-            for sub in data["hull"].values():
-                if isinstance(sub, dict) and key in sub:
-                    sub[key] = str((Path(vessel.source).parent / sub[key]).resolve())
+        data["hydro_database"] = absolute(data["hydro_database"])
+    hull = data.get("hull") if isinstance(data.get("hull"), dict) else {}
+    for sub in hull.values():  # mesh.file, capytaine.file / files, wamit.prefix / runs[].prefix
+        for entry in [sub] + (sub.get("runs") or [] if isinstance(sub, dict) else []):
+            if isinstance(entry, dict):
+                for key in ("file", "files", "prefix"):
+                    if key in entry:
+                        entry[key] = absolute(entry[key])
     return data
 
 
@@ -225,34 +271,38 @@ def tuned_vessel_yaml(vessel, post, path: Path) -> None:
         tmp.write_text(yaml.safe_dump(data, sort_keys=False, allow_unicode=True))
 
 
-def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
+@dataclass
+class Fit:
+    """The tuned belief and what it was fitted on (tune_stage writes it; validation compares two of them)."""
+
+    parameters: list
+    names: list[str]
+    inputs: list
+    roles: list[str]
+    backend: object
+    gpr: object
+    rows: list[dict]
+    post: object
+
+
+def fit_loading(run, vessel, echo=print, given_sea=None) -> Fit:
+    """The backend run over identify's natural frequencies and then every training window, in time order.
+    `given_sea`: see window_inputs."""
+    from seatune.diagnosis.effects import MODEL_SIDE
     from seatune.io.hindcast_readers import read_hindcast
-    from seatune.io.parquet import write_table
-    from seatune.io.rundir import fingerprint, is_fresh
+    from seatune.io.motion_table import MotionTable
+    from seatune.pipeline.sea import sea_for_tuning
     from seatune.tuning.forward import ChannelPower
 
     settings = run.spec.tuning
-    from seatune.pipeline.sea import read_sea_states, sea_inputs
-
-    src = [run.artefact(n) for n in ("windows.parquet", "window_stats.parquet", "window_spectra.parquet",
-                                     "motions.parquet")]
-    fp = fingerprint(src + sea_inputs(run) + [run.hindcast_path, run.vessel_path],
-                     {"stage": "tune", "tuning": settings.model_dump(),
-                      "uncertainty": run.spec.hindcast.uncertainty.model_dump()})
-    outs = [run.artefact(n) for n in ("tuning_history.parquet", "validation.parquet")]
-    tuned_path = run.artefact("tuned_vessel.yaml")
-    if not force and is_fresh(outs, fp) and tuned_path.exists():
-        return {"skipped": True}
     parameters = tuning_parameters(run, vessel)
-    from seatune.diagnosis.effects import MODEL_SIDE
-    from seatune.io.motion_table import MotionTable
-
     unused = [e["kind"] for e in vessel.spec.effects if e["kind"] not in MODEL_SIDE]
     if unused:
         echo(f"tune: note: {', '.join(unused)} (vessel effects) act on the sea or depend on the sea state; "
              f"tuning solves the vessel without them")
-    windows, stats, spectra = (pd.read_parquet(p) for p in src[:3])
-    motions = MotionTable(src[3])
+    windows, stats, spectra = (pd.read_parquet(run.artefact(n)) for n in
+                               ("windows.parquet", "window_stats.parquet", "window_spectra.parquet"))
+    motions = MotionTable(run.artefact("motions.parquet"))
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
     available = set(stats["channel"])
     channels = settings.channels or [c.name for c in vessel.channels if c.name in available]
@@ -266,7 +316,8 @@ def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
             raise UserError(str(run.path), f"tuning.heading_rules[{k}].channels",
                             f"not among the tuned channels: {', '.join(unknown)}")
     power = ChannelPower(vessel, [p.name for p in parameters], channels)
-    inputs = window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, names, read_sea_states(run))
+    sea = None if given_sea is not None else sea_for_tuning(run)
+    inputs = window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, names, sea, given_sea)
     if not inputs:
         raise UserError(str(run.path), "windows", "no accepted window to tune on")
     k = settings.holdout_every
@@ -276,11 +327,37 @@ def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
     backend = make_backend(settings, parameters)
     gpr = damping_gpr(settings.damping_gpr, parameters)
     rows = history_rows(0, "", backend.name, backend.posterior())
+    modes = mode_inputs(run, vessel, parameters) if settings.natural_frequencies else None
+    if modes is not None:  # first, on the full prior grid: the ridge it draws is then refined by the windows
+        rows += history_rows(1, modes[1].window_id, backend.name, backend.update(*modes))
+    first = 2 if modes is not None else 1
     for i, ((wid, model, obs, sea), role) in enumerate(zip(inputs, roles, strict=True)):
         if role == "train":
             used = heading_rule_observation(settings, obs, sea)
-            rows += history_rows(i + 1, wid, backend.name, update_with_gpr(backend, gpr, model, used, sea))
+            rows += history_rows(i + first, wid, backend.name, update_with_gpr(backend, gpr, model, used, sea))
     post = backend.posterior()
+    return Fit(parameters, names, inputs, roles, backend, gpr, rows, post)
+
+
+def tune_stage(run, vessel, echo=print, force: bool = False) -> dict:
+    from seatune.io.parquet import write_table
+    from seatune.io.rundir import fingerprint, is_fresh
+    from seatune.pipeline.sea import sea_inputs
+
+    settings = run.spec.tuning
+    src = [run.artefact(n) for n in ("windows.parquet", "window_stats.parquet", "window_spectra.parquet",
+                                     "motions.parquet")]
+    modal = [run.artefact("natural_frequencies.parquet")] if settings.natural_frequencies else []
+    fp = fingerprint(src + sea_inputs(run) + modal + [run.hindcast_path, run.vessel_path],
+                     {"stage": "tune", "tuning": settings.model_dump(), "known": run.spec.identify.known,
+                      "uncertainty": run.spec.hindcast.uncertainty.model_dump()})
+    outs = [run.artefact(n) for n in ("tuning_history.parquet", "validation.parquet")]
+    tuned_path = run.artefact("tuned_vessel.yaml")
+    if not force and is_fresh(outs, fp) and tuned_path.exists():
+        return {"skipped": True}
+    fit = fit_loading(run, vessel, echo)
+    parameters, names, inputs, roles = fit.parameters, fit.names, fit.inputs, fit.roles
+    backend, gpr, rows, post = fit.backend, fit.gpr, fit.rows, fit.post
     prior_phi = np.array([[p.prior_mean for p in parameters]])
     design = prior_design(parameters)
     val = []
