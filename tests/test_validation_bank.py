@@ -43,8 +43,10 @@ def _artefacts(named, r44_mean, r44_std, roll=None):
 
 
 def test_a_trial_row_and_the_bank_figures_by_hand():
-    rows = [score_trial(_truth("a", "clean", []), _artefacts({"missing_swell"}, 8.2, 0.15), {"roll": 0.5}),
-            score_trial(_truth("b", "clean", []), _artefacts({"moonpool"}, 8.5, 0.2), {"roll": 0.502}),
+    rows = [score_trial(_truth("a", "clean", []), _artefacts({"missing_swell"}, 8.2, 0.15), {"roll": 0.5},
+                        tuned_modes={"roll": 0.51}, reference={"r44": (8.1, 0.2), "gmt_fs": (0.2, 0.1)}),
+            score_trial(_truth("b", "clean", []), _artefacts({"moonpool"}, 8.5, 0.2), {"roll": 0.502},
+                        reference={"r44": (8.0, 0.2), "gmt_fs": (0.2, 0.1)}),
             score_trial(_truth("c", "moonpool", ["moonpool"]), _artefacts({"moonpool"}, 8.0, 0.1, roll=0.49),
                         {"roll": 0.5})]
     a, b, c = rows
@@ -56,6 +58,11 @@ def test_a_trial_row_and_the_bank_figures_by_hand():
     assert c["omega_roll_rel_error"] == pytest.approx(-0.02)
     assert a["heldout_error_prior"] == pytest.approx(np.log(2.0)) and a["heldout_error_tuned"] == pytest.approx(1.0)
     assert b["omega_roll_model_rel_error"] == pytest.approx(0.004)
+    assert a["omega_roll_tuned_model_rel_error"] == pytest.approx(0.02)
+    assert np.isnan(b["omega_roll_tuned_model_rel_error"])
+    # against the same run tuned with the true sea: 0.1 m apart within its 0.2 m σ; b's 0.5 m apart is not
+    assert a["r44_as_true_sea"] and a["r44_true_sea_within_tolerance"] and not b["r44_as_true_sea"]
+    assert "r44_as_true_sea" not in {k for k, v in c.items() if v is not None}  # not a clean trial: no reference
     m = bank_metrics(pd.DataFrame(rows)).set_index(["metric", "group"])
     assert m.loc[("false_alarm_rate", "clean"), "value"] == 0.5
     assert not m.loc[("false_alarm_rate", "clean"), "passed"]
@@ -63,6 +70,9 @@ def test_a_trial_row_and_the_bank_figures_by_hand():
     assert m.loc[("coverage_2sigma", "r44"), "value"] == pytest.approx(2 / 3)
     assert m.loc[("omega_value_or_reason", "roll"), "value"] == 1.0  # value or reason in all three
     assert m.loc[("omega_reported_with_value", "roll"), "value"] == pytest.approx(1 / 3)
+    assert m.loc[("estimated_sea_within_1sigma_of_true_sea", "r44"), "value"] == 0.5
+    assert m.loc[("parameter_within_tolerance_clean_true_sea", "r44"), "n"] == 2
+    assert m.loc[("tuned_model_mode_within_2pct", "roll"), "n"] == 1
     conf = confusion(pd.DataFrame(rows))
     assert conf.loc["clean", "moonpool"] == 1 and conf.loc["clean", "none"] == 1 and conf.values.sum() == 3
 
@@ -87,6 +97,9 @@ def test_make_validate_on_the_ci_bank(tmp_path):
         # every DOF has a value or the reason it has none, never a silent omission
         assert (summary[f"omega_{d}_reported"] | (summary[f"omega_{d}_reason"] != "")).all()
     metrics = pd.read_parquet(out / "bank_metrics.parquet")
-    assert {"false_alarm_rate", "coverage_2sigma", "omega_value_or_reason"} <= set(metrics["metric"])
+    assert {"false_alarm_rate", "coverage_2sigma", "omega_value_or_reason", "estimated_sea_within_1sigma_of_true_sea",
+            "tuned_model_mode_within_2pct"} <= set(metrics["metric"])
+    clean = summary[summary["category"] == "clean"]
+    assert clean["r44_true_sea_std"].gt(0).all()  # each clean trial tuned once more with its true sea
     assert "Figures against the targets" in (out / "index.html").read_text()
     assert (out / "fleet" / "fleet_summary.parquet").is_file()

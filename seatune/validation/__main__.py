@@ -1,6 +1,7 @@
 """`python -m seatune.validation --bank trial_bank --out validation` (`make validate`): seatune on every trial of the
-blind bank (`seatune batch` on Dask), each run scored against its truth.yaml → bank_summary.parquet (one row per
-trial), bank_metrics.parquet (the figures beside issue 15's targets), confusion.parquet and index.html.
+blind bank (`seatune batch` on Dask), each run scored against its truth.yaml, the clean trials also tuned once more
+with their true sea given (validation/true_sea.py) → bank_summary.parquet (one row per trial),
+bank_metrics.parquet (the figures beside the issues' targets), confusion.parquet and index.html.
 
 Missed targets are reported, not failed on: exit 0 when every trial could be scored, 2 with one line on bad input.
 """
@@ -64,7 +65,35 @@ def model_modes_at_truth(truth: dict, folder: Path, cache: dict) -> dict[str, fl
     return dict(zip(("heave", "roll", "pitch"), coupled_modes(vessel.db, loading).omega[0].tolist(), strict=True))
 
 
-def score_bank(bank: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
+def tuned_model_modes(rd: Path) -> dict[str, float] | None:
+    """The coupled ω_n of the run's tuned_vessel.yaml (the model tune hands on), or None without one."""
+    from seatune.physics.modes import coupled_modes
+    from seatune.pipeline.vessel import open_vessel
+
+    if not (rd / "tuned_vessel.yaml").is_file():
+        return None
+    vessel = open_vessel(rd / "tuned_vessel.yaml")
+    return dict(zip(("heave", "roll", "pitch"), coupled_modes(vessel.db, vessel.base_loading).omega[0].tolist(),
+                    strict=True))
+
+
+def _reference(folder: Path):
+    from seatune.validation.true_sea import true_sea_posterior
+
+    return true_sea_posterior(folder, read_truth(folder))
+
+
+def true_sea_references(bank: Path, workers: int) -> dict[Path, dict]:
+    """{trial folder: posterior with the true sea given} of the clean trials that ran (processes, `workers`)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    folders = [f for _, f in read_bank(bank) if read_truth(f).get("category") == "clean"
+               and (run_dir(f) / "tuning_history.parquet").is_file()]
+    with ProcessPoolExecutor(max(workers, 1)) as pool:
+        return dict(zip(folders, pool.map(_reference, folders), strict=True))
+
+
+def score_bank(bank: Path, references: dict[Path, dict] | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
     """(bank summary, per window × true partition sea scores)."""
     from seatune.validation.score import score_trial, sea_rows
 
@@ -76,7 +105,8 @@ def score_bank(bank: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
                 for a in ARTEFACTS}
         missing = [a for a in ("tuning_history", "natural_frequencies", "diagnosis") if arts[a] is None]
         status, message = ("ok", "") if not missing else ("failed", f"no {', '.join(missing)} in {rd}")
-        rows.append(score_trial(truth, arts, model_modes_at_truth(truth, folder, cache), status, message))
+        rows.append(score_trial(truth, arts, model_modes_at_truth(truth, folder, cache), status, message,
+                                tuned_model_modes(rd), (references or {}).get(folder)))
         windows = pd.read_parquet(rd / "windows.parquet") if (rd / "windows.parquet").is_file() else None
         sea += sea_rows(truth, arts.get("sea_states"), windows)
     return pd.DataFrame(rows), pd.DataFrame(sea)
@@ -89,6 +119,8 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", default=2, type=int)
     ap.add_argument("--scheduler", default=None, help="tcp://HOST:PORT of a running Dask scheduler")
     ap.add_argument("--no-run", action="store_true", help="score the runs already in the bank")
+    ap.add_argument("--no-reference", action="store_true",
+                    help="skip the clean trials' second tune with the true sea given (the estimated sea's cost)")
     args = ap.parse_args(argv)
     try:
         from seatune.io.parquet import write_table
@@ -104,7 +136,8 @@ def main(argv=None) -> int:
             done = subprocess.run(cmd)
             if done.returncode == 2:
                 return 2
-        summary, sea = score_bank(args.bank)
+        references = true_sea_references(args.bank, args.workers) if not args.no_reference else None
+        summary, sea = score_bank(args.bank, references)
         metrics = pd.concat([bank_metrics(summary), sea_metrics(sea)], ignore_index=True)
         conf = confusion(summary)
         args.out.mkdir(parents=True, exist_ok=True)

@@ -64,9 +64,12 @@ def primary_modes(nf: pd.DataFrame | None) -> dict[str, dict]:
 
 
 def score_trial(truth: dict, artefacts: dict[str, pd.DataFrame | None], model_modes: dict[str, float] | None = None,
-                status: str = "ok", message: str = "") -> dict:
+                status: str = "ok", message: str = "", tuned_modes: dict[str, float] | None = None,
+                reference: dict[str, tuple[float, float]] | None = None) -> dict:
     """One row of bank_summary.parquet. `artefacts`: tuning_history, validation, natural_frequencies, diagnosis
-    (None when missing); `model_modes`: the vessel model's coupled ω_n at the true loading by DOF."""
+    (None when missing); `model_modes`: the vessel model's coupled ω_n at the true loading by DOF; `tuned_modes`:
+    the tuned model's; `reference`: the posterior {parameter: (mean, std)} of the same run tuned with the true
+    sea (validation/true_sea.py)."""
     true_effects = {e["kind"] for e in truth.get("effects") or []}
     diag = artefacts.get("diagnosis")
     named = set() if diag is None else {str(e) for e in diag.loc[diag["selected"].astype(bool), "effect"]} - {"none"}
@@ -88,8 +91,15 @@ def score_trial(truth: dict, artefacts: dict[str, pd.DataFrame | None], model_mo
                 f"{p}_within_2sigma": bool(abs(err) <= 2 * std) if np.isfinite(err) else None}
         if p in PARAMETER_TOLERANCE:
             tol, kind = PARAMETER_TOLERANCE[p]
-            row[f"{p}_within_tolerance"] = (bool(abs(err) <= tol * (abs(t) if kind == "rel" else 1.0))
-                                            if np.isfinite(err) else None)
+            tol = tol * (abs(t) if kind == "rel" else 1.0)
+            row[f"{p}_within_tolerance"] = bool(abs(err) <= tol) if np.isfinite(err) else None
+            if reference is not None:
+                ref_mean, ref_std = reference.get(p, (np.nan, np.nan))
+                row |= {f"{p}_true_sea_estimate": ref_mean, f"{p}_true_sea_std": ref_std,
+                        f"{p}_true_sea_within_tolerance": bool(abs(ref_mean - t) <= tol)
+                        if np.isfinite(ref_mean) else None,
+                        f"{p}_as_true_sea": bool(abs(mean - ref_mean) <= ref_std)
+                        if np.isfinite(ref_mean) and np.isfinite(mean) else None}
     modes = primary_modes(artefacts.get("natural_frequencies"))
     for d in DOFS:
         t = float((truth.get("natural_frequencies") or {}).get(d, np.nan))
@@ -101,7 +111,8 @@ def score_trial(truth: dict, artefacts: dict[str, pd.DataFrame | None], model_mo
                 f"omega_{d}_truth_in_ci": bool(m["ci_low"] <= t <= m["ci_high"]) if reported else None,
                 f"omega_{d}_reason": "" if reported else m["reason"],
                 f"omega_{d}_model_at_truth": model, f"omega_{d}_model_rel_error": model / t - 1,
-                f"omega_{d}_model_in_ci": bool(m["ci_low"] <= model <= m["ci_high"]) if reported else None}
+                f"omega_{d}_model_in_ci": bool(m["ci_low"] <= model <= m["ci_high"]) if reported else None,
+                f"omega_{d}_tuned_model_rel_error": (tuned_modes or {}).get(d, np.nan) / t - 1}
     row["heldout_error_prior"] = heldout_error(artefacts.get("validation"), "predicted_prior")
     row["heldout_error_tuned"] = heldout_error(artefacts.get("validation"), "predicted_tuned")
     return row
@@ -251,6 +262,12 @@ def bank_metrics(summary: pd.DataFrame) -> pd.DataFrame:
             add("parameter_within_tolerance", p, *_rate(ok[f"{p}_within_tolerance"]),
                 TARGETS["parameter_within_tolerance"])
         add("coverage_2sigma", p, *_rate(ok[f"{p}_within_2sigma"]), TARGETS["coverage_2sigma"])
+        if f"{p}_as_true_sea" in ok:  # issue 16: clean trials, degraded hindcasts, against the true sea given
+            clean = ok[(ok["category"] == "clean") & ok[f"{p}_as_true_sea"].notna()]
+            add("parameter_within_tolerance_clean", p, *_rate(clean[f"{p}_within_tolerance"]),
+                TARGETS["parameter_within_tolerance"])
+            add("parameter_within_tolerance_clean_true_sea", p, *_rate(clean[f"{p}_true_sea_within_tolerance"]))
+            add("estimated_sea_within_1sigma_of_true_sea", p, *_rate(clean[f"{p}_as_true_sea"]), 1.0)
     for d in DOFS:
         add("omega_value_or_reason", d, *_rate(ok[f"omega_{d}_reported"] | (ok[f"omega_{d}_reason"] != "")),
             TARGETS["omega_reported"])
@@ -264,6 +281,9 @@ def bank_metrics(summary: pd.DataFrame) -> pd.DataFrame:
         add("model_mode_max_abs_rel_error", d, float(ok[f"omega_{d}_model_rel_error"].abs().max()), len(ok),
             0.005, higher_better=False)
         add("model_mode_in_measured_ci", d, *_rate(reported[f"omega_{d}_model_in_ci"]), 0.90)
+        tuned = ok[f"omega_{d}_tuned_model_rel_error"].dropna().abs()
+        add("tuned_model_mode_median_abs_rel_error", d, float(tuned.median()) if len(tuned) else np.nan, len(tuned))
+        add("tuned_model_mode_within_2pct", d, *_rate(tuned <= 0.02))
     for col in ("heldout_error_prior", "heldout_error_tuned"):
         v = ok[col].dropna()
         add(f"median_{col}", "all", float(v.median()) if len(v) else np.nan, len(v))
