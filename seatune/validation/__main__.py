@@ -66,13 +66,17 @@ def model_modes_at_truth(truth: dict, folder: Path, cache: dict) -> dict[str, fl
 
 
 def tuned_model_modes(rd: Path) -> dict[str, float] | None:
-    """The coupled ω_n of the run's tuned_vessel.yaml (the model tune hands on), or None without one."""
+    """The coupled ω_n of the run's tuned_vessel.yaml (the model tune hands on), or None without one or when it
+    cannot be opened (written before its hull files were named absolutely: tune the run again)."""
     from seatune.physics.modes import coupled_modes
     from seatune.pipeline.vessel import open_vessel
 
     if not (rd / "tuned_vessel.yaml").is_file():
         return None
-    vessel = open_vessel(rd / "tuned_vessel.yaml")
+    try:
+        vessel = open_vessel(rd / "tuned_vessel.yaml")
+    except UserError:
+        return None
     return dict(zip(("heave", "roll", "pitch"), coupled_modes(vessel.db, vessel.base_loading).omega[0].tolist(),
                     strict=True))
 
