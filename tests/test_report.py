@@ -108,11 +108,11 @@ def test_tuned_model_path_reproduces_the_prior_model_of_identify(reported):
     """The report's RAO recomputation, fed the prior loading, gives identify's model_prior on every aggregate row."""
     from seatune.io.run_yaml import Run
     from seatune.pipeline.report import tuned_model_raos
-    from seatune.pipeline.vessel import open_vessel
+    from seatune.pipeline.vessel import open_run_vessel
 
     out, path, _ = reported
     run = Run(path)
-    vessel = open_vessel(run.vessel_path)
+    vessel = open_run_vessel(run)
     raos = pd.read_parquet(out / "raos.parquet")
     motions = MotionTable(out / "motions.parquet")
     got = tuned_model_raos(run, vessel, vessel.base_loading, pd.read_parquet(out / "windows.parquet"), motions, raos)
@@ -165,11 +165,11 @@ def test_report_stage_alone_on_an_empty_run_dir_is_a_user_error(tmp_path):
     from seatune.errors import UserError
     from seatune.io.run_yaml import Run
     from seatune.pipeline.report import report_stage
-    from seatune.pipeline.vessel import open_vessel
+    from seatune.pipeline.vessel import open_run_vessel
 
     run = Run(sample_run(tmp_path))
     with pytest.raises(UserError, match="motions.parquet is missing"):
-        report_stage(run, open_vessel(run.vessel_path))
+        report_stage(run, open_run_vessel(run))
 
 
 def _chromium_page(html_path: Path, screenshot: Path):
@@ -321,11 +321,11 @@ def test_response_spectra_integrate_to_the_sigma_of_filter_and_tune(reported):
     and tuned loading the σ the tune stage's forward model predicted (validation.parquet) within 2 %."""
     from seatune.io.run_yaml import Run
     from seatune.pipeline.report import model_spectra, posterior_means
-    from seatune.pipeline.vessel import open_vessel
+    from seatune.pipeline.vessel import open_run_vessel
 
     out, path, _ = reported
     run = Run(path)
-    vessel = open_vessel(run.vessel_path)
+    vessel = open_run_vessel(run)
     hist = pd.read_parquet(out / "tuning_history.parquet")
     loadings = {"prior": vessel.base_loading, "tuned": vessel.loading(**posterior_means(hist))}
     spectra = model_spectra(run, vessel, loadings, pd.read_parquet(out / "windows.parquet"),
@@ -453,7 +453,7 @@ def test_warning_card_from_a_real_run_whose_tuning_misleads(reported, tmp_path):
     validation.parquet, at the top and in the Validation section."""
     from seatune.io.run_yaml import Run
     from seatune.pipeline.report import report_stage
-    from seatune.pipeline.vessel import open_vessel
+    from seatune.pipeline.vessel import open_run_vessel
 
     copy = _copy_run(reported, tmp_path, tuning={"channels": ["roll_rate"], "statistics": ["tz"]})
     res = run_cli("tune", copy)
@@ -466,7 +466,7 @@ def test_warning_card_from_a_real_run_whose_tuning_misleads(reported, tmp_path):
     prior, tuned = _held_out(val, "predicted_prior"), _held_out(val, "predicted_tuned")
     assert tuned > prior
     run = Run(copy)
-    report_stage(run, open_vessel(run.vessel_path))
+    report_stage(run, open_run_vessel(run))
     page = (out / "report.html").read_text(encoding="utf-8")
     figures = f"all channels {100 * prior:.1f} % (prior) → {100 * tuned:.1f} % (tuned)"
     cards = re.findall(r'<div class="alert" role="alert"><div class="k">([^<]*)</div><div>([^<]*)</div>', page)

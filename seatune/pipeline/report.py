@@ -91,16 +91,18 @@ def model_spectra(run, vessel, loadings: dict, windows: pd.DataFrame, motions,
     the model's with each loading in `loadings` ({"prior": …, "tuned": …}) in the window's directional sea:
     (window_id, channel, omega, measured, <one column per loading>) in channel unit²·s/rad. The model's S_xx is
     |H_eff|² S_ζζ with identify's effective RAO, so it is the spectrum whose ratio identify calls the RAO.
-    `motions`: the MotionTable (the position at mid-window)."""
+    `motions`: the MotionTable (the position at mid-window). The sea is the one tune fitted the loading against
+    (sea_for_tuning), so each σ is the tune stage's prediction."""
     from seatune.io.hindcast_readers import read_hindcast
     from seatune.pipeline.identify import effective_model_rao, mode_channels, window_wave_spectrum
+    from seatune.pipeline.sea import sea_for_tuning
 
     columns = ["window_id", "channel", "omega", "measured", *loadings]
     if spectra is None or spectra.empty:
         return pd.DataFrame(columns=columns)
     channels = [m.channel for m in mode_channels(vessel, set(spectra["channel"]))]
     hc = hc if hc is not None else read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
-    sea = read_sea_states(run)
+    sea = sea_for_tuning(run)
     top = min(SPECTRUM_OMEGA_MAX, float(vessel.db.omega.max()))
     spectra = spectra[spectra["channel"].isin(channels) & (spectra["omega"] > 0) & (spectra["omega"] <= top)]
     out = []

@@ -144,9 +144,14 @@ def capytaine_files(files: list[str] | str, base: Path) -> list[Path]:
 
 def open_run_vessel(run) -> VesselModel:
     """The run's vessel with the run YAML's `identify.known` loading values (mass, zcg, … from the loading
-    computer) in its base condition: every stage then models the untuned parameters as known on board instead
-    of at the vessel YAML's design values (a KG 0.5 m off the YAML's would otherwise be tuned into gmt_fs)."""
-    return open_vessel(run.vessel_path).with_loading(**run.spec.identify.known)
+    computer) in its base condition for the parameters it does not tune: every stage then models them as known on
+    board instead of at the vessel YAML's design values (a KG 0.5 m off the YAML's would otherwise be tuned into
+    gmt_fs); a tuned parameter starts from its prior, as tune does."""
+    tuned = set(run.spec.tuning.parameters)
+    if tuned & {"mass", "displacement"}:
+        tuned |= {"mass", "displacement"}
+    known = {k: v for k, v in run.spec.identify.known.items() if k not in tuned}
+    return open_vessel(run.vessel_path).with_loading(**known)
 
 
 def open_vessel(path: str | Path) -> VesselModel:
