@@ -192,7 +192,7 @@ MODES_SHIFTED_BY = {"anti_roll_tank": "Roll", "moonpool": "Heave"}  # vessel eff
 def mode_inputs(run, vessel, parameters):
     """identify's natural frequencies (window 'all', per DOF with a value) as one sea-independent observation:
     z = ω_n, variance = (CI half-width / z_conf)², predicted by the coupled modes of the loading. σ̂ alone leaves
-    r44 and GMT on one ridge and the tuned roll mode free to drift by ±8 % from the measured one; the measured
+    r44 and GMT on one ridge and the tuned roll mode free to drift by up to 10 % from the measured one; the measured
     ω_n pins the ridge. None without natural_frequencies.parquet or a mode with a finite interval."""
     from scipy.stats import norm
 
