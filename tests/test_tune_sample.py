@@ -155,3 +155,17 @@ def test_a_rewritten_vessel_yaml_opens_elsewhere_with_the_known_loading(tmp_path
     np.testing.assert_array_equal(again.db.added_mass, vessel.db.added_mass)
     with pytest.raises(UserError, match="loading.mass"):
         vessel.with_loading(mass=9.0e6)  # deeper than the deepest Capytaine draft
+
+
+def test_a_known_loading_outside_the_database_exits_2_naming_the_run_yaml(tmp_path):
+    """identify.known now sets the loading every stage models: a mass deeper than the hydro database's drafts is
+    the run YAML's fault, said in one line before any stage runs (nothing written)."""
+    path = sample_run(tmp_path)
+    data = yaml.safe_load(path.read_text())
+    data["identify"]["known"] = {"mass": 3.0e7, "zcg": 6.75}
+    path.write_text(yaml.safe_dump(data))
+    res = run_cli("tune", path)
+    assert res.returncode == 2, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and str(path) in lines[0] and "identify.known" in lines[0], lines
+    assert not (tmp_path / "run").exists()

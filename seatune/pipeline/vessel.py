@@ -151,7 +151,11 @@ def open_run_vessel(run) -> VesselModel:
     if tuned & {"mass", "displacement"}:
         tuned |= {"mass", "displacement"}
     known = {k: v for k, v in run.spec.identify.known.items() if k not in tuned}
-    return open_vessel(run.vessel_path).with_loading(**known)
+    vessel = open_vessel(run.vessel_path)
+    try:
+        return vessel.with_loading(**known)
+    except UserError as err:  # the run YAML's values are at fault, not the vessel's
+        raise UserError(str(run.path), "identify.known", err.problem) from None
 
 
 def open_vessel(path: str | Path) -> VesselModel:
