@@ -34,7 +34,7 @@ def cli():
 def main():
     """The console script. Once the command has returned and its output is flushed, the process ends without the
     interpreter's teardown: Arrow's parquet thread pool can abort there (std::terminate, exit −6) after all the
-    work is done (apache/arrow#34314; seen once in ~2000 CLI runs of the test suite). Everything seatune opens
+    work is done (apache/arrow#34314; one test subprocess in one of three full suites). Everything seatune opens
     (files, the Dask cluster) is closed by its own context managers before this point."""
     import os
 
