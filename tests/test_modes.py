@@ -101,12 +101,7 @@ def test_modes_are_zeros_of_capytaines_undamped_impedance(barge, dbs):
     """det Re Z(ω) of Capytaine's impedance (M + A, C about the keel, at BEM frequencies) changes sign at each
     coupled root; linear interpolation of det between the BEM points locates it to the grid's accuracy."""
     modes = coupled_modes(dbs["keel"], _truth(dbs["keel"]))
-    ds = barge["keel"].sel(omega=OMEGA)
-    z = capytaine_impedance(ds).sel(influenced_dof=list(DOFS), radiating_dof=list(DOFS)).transpose(
-        "omega", "influenced_dof", "radiating_dof")
-    om = z["omega"].values
-    det = np.linalg.det((z.values * -1j * om[:, None, None]).real) / om**6  # H = −iω Z; det of the undamped part
-    roots = CubicSpline(om, det).roots(extrapolate=False)
+    roots = _capytaine_roots(barge)
     assert len(roots) == 3
     assert sorted(modes.omega[0]) == pytest.approx(sorted(roots), rel=2e-3)
     # and the uncoupled roll ratio is what the coupling corrects (a free-floating roll turns about its roll centre)
@@ -213,7 +208,7 @@ def _capytaine_roots(barge) -> np.ndarray:
     z = capytaine_impedance(ds).sel(influenced_dof=list(DOFS), radiating_dof=list(DOFS)).transpose(
         "omega", "influenced_dof", "radiating_dof")
     om = z["omega"].values
-    det = np.linalg.det((z.values * -1j * om[:, None, None]).real) / om**6
+    det = np.linalg.det((z.values * -1j * om[:, None, None]).real) / om**6  # H = −iω Z; det of the undamped part
     return np.sort(CubicSpline(om, det).roots(extrapolate=False))
 
 

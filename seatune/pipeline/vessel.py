@@ -24,8 +24,8 @@ class VesselModel:
     def base_loading(self) -> Loading:
         return self.loading()
 
-    def loading(self, **overrides) -> Loading:
-        """The YAML loading condition with parameters replaced (scalars or arrays)."""
+    def _replaced(self, overrides: dict) -> dict:
+        """The YAML loading's values with `overrides` in place (mass and displacement replace each other)."""
         values = self.spec.loading.model_dump()
         for key, val in overrides.items():
             if key not in LOADING_PARAMETERS and key != "displacement":
@@ -34,6 +34,11 @@ class VesselModel:
             if key in ("mass", "displacement"):
                 values["mass"] = values["displacement"] = None
             values[key] = val
+        return values
+
+    def loading(self, **overrides) -> Loading:
+        """The YAML loading condition with parameters replaced (scalars or arrays)."""
+        values = self._replaced(overrides)
         try:
             loading = Loading.from_mapping(values, rho=self.db.rho)
         except ValueError as err:
@@ -48,11 +53,7 @@ class VesselModel:
             return self
         from seatune.io.vessel_yaml import LoadingSpec
 
-        data = self.spec.loading.model_dump()
-        for key, val in values.items():
-            if key in ("mass", "displacement"):
-                data["mass"] = data["displacement"] = None
-            data[key] = float(val)
+        data = self._replaced({key: float(val) for key, val in values.items()})
         try:
             spec = self.spec.model_copy(update={"loading": LoadingSpec(**data)})
         except ValueError as err:

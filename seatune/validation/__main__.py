@@ -51,24 +51,28 @@ def run_dir(folder: Path) -> Path:
     return folder / spec.get("run_dir", "run")
 
 
+def modes_by_dof(vessel, loading) -> dict[str, float]:
+    """{heave, roll, pitch: coupled ω_n} of one loading condition."""
+    from seatune.physics.modes import coupled_modes
+
+    return dict(zip(("heave", "roll", "pitch"), coupled_modes(vessel.db, loading).omega[0].tolist(), strict=True))
+
+
 def model_modes_at_truth(truth: dict, folder: Path, cache: dict) -> dict[str, float]:
     """The vessel model's coupled ω_n at the true loading (what the model would say with the loading known)."""
     from seatune.physics.loading import PARAMETERS
-    from seatune.physics.modes import coupled_modes
     from seatune.pipeline.vessel import open_vessel
 
     path = (folder / truth["vessel"]).resolve()
     if path not in cache:
         cache[path] = open_vessel(path)
     vessel = cache[path]
-    loading = vessel.loading(**{p: truth["loading"][p] for p in PARAMETERS if p in truth["loading"]})
-    return dict(zip(("heave", "roll", "pitch"), coupled_modes(vessel.db, loading).omega[0].tolist(), strict=True))
+    return modes_by_dof(vessel, vessel.loading(**{p: truth["loading"][p] for p in PARAMETERS if p in truth["loading"]}))
 
 
 def tuned_model_modes(rd: Path) -> dict[str, float] | None:
     """The coupled ω_n of the run's tuned_vessel.yaml (the model tune hands on), or None without one or when it
     cannot be opened (written before its hull files were named absolutely: tune the run again)."""
-    from seatune.physics.modes import coupled_modes
     from seatune.pipeline.vessel import open_vessel
 
     if not (rd / "tuned_vessel.yaml").is_file():
@@ -77,8 +81,7 @@ def tuned_model_modes(rd: Path) -> dict[str, float] | None:
         vessel = open_vessel(rd / "tuned_vessel.yaml")
     except UserError:
         return None
-    return dict(zip(("heave", "roll", "pitch"), coupled_modes(vessel.db, vessel.base_loading).omega[0].tolist(),
-                    strict=True))
+    return modes_by_dof(vessel, vessel.base_loading)
 
 
 def _reference(folder: Path):

@@ -7,13 +7,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
+from seatune.identification.sea_estimation import DIRS_FROM
 from seatune.validation.score import match_windows
 
 GIVEN_SEA_STD = (0.03, 0.2, 3.0)  # Hs relative, Tp [s], direction [deg]: the floors of an estimated sea
-_DIRS_FROM = np.arange(72) * 5.0
 _FIELDS = ("kind", "hs", "tp", "dir_from_deg", "gamma", "spreading", "spread_deg", "shape")
 
 
@@ -31,7 +30,7 @@ def true_sea(truth: dict, windows: pd.DataFrame):
         parts = [Partition(**{k: p[k] for k in _FIELDS}) for p in w["partitions"]]
         top = max(w["partitions"], key=lambda p: p["hs"])
         sea = WindowSea(float(w["hs"]), float(top["tp"]), *GIVEN_SEA_STD, estimated=True)
-        return directional_spectrum(omega, _DIRS_FROM, parts), _DIRS_FROM.copy(), sea
+        return directional_spectrum(omega, DIRS_FROM, parts), DIRS_FROM.copy(), sea
 
     return given
 
