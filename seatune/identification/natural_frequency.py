@@ -227,6 +227,15 @@ def sdof_amplitude(omega, omega_n: float, zeta: float, gain: float, order: int =
     return gain * r**order / np.sqrt((1 - r * r) ** 2 + (2 * zeta * r) ** 2)
 
 
+def _sdof_log_jacobian(omega, omega_n: float, zeta: float, gain: float, order: int = 0) -> np.ndarray:
+    """∂ ln|H_q| / ∂(ω_n, ζ, K) of :func:`sdof_amplitude`, shape (n, 3)."""
+    r = np.asarray(omega, dtype=float) / omega_n
+    d = (1 - r * r) ** 2 + (2 * zeta * r) ** 2
+    d_omega_n = -order / omega_n - 2 * r * r * (1 - r * r - 2 * zeta * zeta) / (omega_n * d)
+    d_zeta = -4 * zeta * r * r / d
+    return np.column_stack([d_omega_n, d_zeta, np.full_like(r, 1.0 / gain if gain > 0 else 0.0)])
+
+
 @dataclass(frozen=True)
 class SdofFit:
     """Result of :func:`fit_sdof`.
@@ -362,16 +371,23 @@ def fit_sdof(
 
         def resid(p):
             return (np.log(sdof_amplitude(x, p[0], p[1], p[2], order)) - ly) / sig
+
+        def jac(p):
+            return _sdof_log_jacobian(x, *p, order) / sig[:, None]
     else:
         ww = w[mask] / float(y.max())  # residuals of order 1 whatever the amplitude's unit (tolerances are absolute)
 
         def resid(p):
             return ww * (sdof_amplitude(x, p[0], p[1], p[2], order) - y)
 
+        def jac(p):
+            return (ww * sdof_amplitude(x, p[0], p[1], p[2], order))[:, None] * _sdof_log_jacobian(x, *p, order)
+
     lb = np.array([x.min() * 0.5, 1e-6, 0.0])
     ub = np.array([x.max() * 2.0, 2.0, np.inf])
     p0 = np.clip(p0, lb * 1.0001 + 1e-12, np.where(np.isfinite(ub), ub * 0.9999, np.inf))
-    sol = optimize.least_squares(resid, p0, bounds=(lb, ub), x_scale=scale, method="trf", xtol=1e-12, ftol=1e-12)
+    sol = optimize.least_squares(resid, p0, jac=jac, bounds=(lb, ub), x_scale=scale, method="trf", xtol=1e-12,
+                                 ftol=1e-12)
     J = sol.jac
     dof = n - 3
     rss = float(sol.fun @ sol.fun)

@@ -313,7 +313,8 @@ def mode_spectra(model, modes, spectra_w: pd.DataFrame, motions_w: pd.DataFrame 
 
 
 def _dt(motions: pd.DataFrame) -> float:
-    return float(np.median(np.diff(motions["time"].to_numpy()).astype("timedelta64[ns]").astype(float)) * 1e-9)
+    t = motions["time"].to_numpy("datetime64[ns]")  # not to_numpy(): a tz-aware column would become Timestamps
+    return float(np.median(np.diff(t).astype("timedelta64[ns]").astype(float)) * 1e-9)
 
 
 def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str, float], settings,
