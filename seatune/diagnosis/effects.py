@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from seatune.diagnosis.model import spectra_in_sea
 from seatune.physics.channels import AXES, Channel, point_translation, transfer_vectors
 from seatune.physics.response import trapezoid_weights
 
@@ -88,7 +89,7 @@ class QuadraticRollDamping(Effect):
             new = np.sqrt((np.einsum("wfb,wfb->wf", roll.real**2 + roll.imag**2, parts.wave) * om**2) @ w)
             sigma = new if k == 0 else np.sqrt(sigma * new)  # geometric damping of the fixed point
         h = h0[None] - coef[..., None] * hg[None, :, None, :]  # (nw, nf, nb, nc)
-        return np.einsum("wfbc,wfb->wcf", h.real**2 + h.imag**2, parts.wave)
+        return spectra_in_sea(h.real**2 + h.imag**2, parts.wave)
 
 
 class Moonpool(Effect):

@@ -9,7 +9,9 @@ interpolated to the analysis frequencies (power and phase for F, physics/interp.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -58,23 +60,43 @@ class ModelParts:
     wave: np.ndarray  # (nw, nf, nb) S(ω, β)·Δβ
     beta: np.ndarray  # (nb,) rad, database directions
     draft: float
-    omega_roll: float  # undamped roll natural frequency [rad/s]
-    inertia_roll: float  # I44 + A44(ω_roll) about the origin [kg·m²]
+    roll_mode: Callable[[], tuple[float, float]]  # (ω_roll, I44 + A44(ω_roll)), on demand: a coupled eigen-solve
     g: float
     rho: float
+
+    @cached_property
+    def _roll(self) -> tuple[float, float]:
+        return self.roll_mode()
+
+    @property
+    def omega_roll(self) -> float:
+        """Undamped roll natural frequency [rad/s]."""
+        return self._roll[0]
+
+    @property
+    def inertia_roll(self) -> float:
+        """I44 + A44(ω_roll) about the origin [kg·m²]."""
+        return self._roll[1]
 
     def solve(self) -> np.ndarray:
         """Channel transfer functions H_j(ω, β): (nf, nb, nc) or (nw, nf, nb, nc)."""
         xi = np.linalg.solve(self.impedance, np.swapaxes(self.force, -1, -2))  # (..., nf, 6, nb)
-        return np.einsum("...fdb,fdc->...fbc", xi, self.transfer)
+        return np.swapaxes(xi, -1, -2) @ self.transfer  # Σ_d ξ_d t_dc: a batched matmul (BLAS), not einsum
 
     def spectra(self) -> np.ndarray:
         """S_j(ω) = Σ_β |H_j|² S(ω, β) Δβ per window: (nw, nc, nf)."""
         h = self.solve()
         power = h.real**2 + h.imag**2
-        if power.ndim == 3:
-            return np.einsum("fbc,wfb->wcf", power, self.wave)
-        return np.einsum("wfbc,wfb->wcf", power, self.wave)
+        return spectra_in_sea(power, self.wave)
+
+
+def spectra_in_sea(power: np.ndarray, wave: np.ndarray) -> np.ndarray:
+    """Σ_β |H_j(ω, β)|² S(ω, β) Δβ: power (nf, nb, nc) or (nw, nf, nb, nc), wave (nw, nf, nb) → (nw, nc, nf).
+    As batched matrix products (BLAS); einsum would loop."""
+    if power.ndim == 3:
+        out = np.swapaxes(wave, 0, 1) @ power  # (nf, nw, nc)
+        return out.transpose(1, 2, 0)
+    return (wave[:, :, None, :] @ power)[:, :, 0, :].transpose(0, 2, 1)
 
 
 class SpectralModel:
@@ -118,12 +140,15 @@ class SpectralModel:
         M, C, Bv = lh.mass_matrix[0], lh.stiffness[0], lh.extra_damping[0]
         H = -(om**2) * (M + A) - 1j * om * (B + Bv) + C
         t = transfer_vectors(self._channels, self.omega, lh.draft, db.g)[0]
-        w_roll = float(natural_frequencies(db, loading, dofs=(3,))[0, 0])
-        a44 = float(np.interp(w_roll, db.omega, (1 - w) * db.added_mass[i0, :, 3, 3] + w * db.added_mass[i1, :, 3, 3]))
+
+        def roll_mode():
+            w_roll = float(natural_frequencies(db, loading, dofs=(3,))[0, 0])
+            a44 = (1 - w) * db.added_mass[i0, :, 3, 3] + w * db.added_mass[i1, :, 3, 3]
+            return w_roll, float(M[3, 3] + np.interp(w_roll, db.omega, a44))
+
         wave = self.data.wave.copy() if self.data is not None else np.zeros((0, om.shape[0], db.wave_direction.size))
         parts = ModelParts(omega=self.omega, impedance=H, force=F, transfer=t, wave=wave,
-                           beta=db.wave_direction, draft=float(lh.draft[0]), omega_roll=w_roll,
-                           inertia_roll=M[3, 3] + a44, g=db.g, rho=db.rho)
+                           beta=db.wave_direction, draft=float(lh.draft[0]), roll_mode=roll_mode, g=db.g, rho=db.rho)
         for effect, params in self.known:
             effect.apply(parts, params, self)
         return parts

@@ -20,10 +20,10 @@ DOF_NAMES = {2: "heave", 3: "roll", 4: "pitch"}
 
 def log_ratio(measured: np.ndarray, expected: np.ndarray, dof: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Bias-corrected ln(Ŝ/E[Ŝ]) and its standard deviation; dof broadcasts against the spectra."""
-    nu = np.broadcast_to(np.asarray(dof, dtype=float)[..., None], measured.shape)
+    half = np.asarray(dof, dtype=float)[..., None] / 2  # special functions on the dof, not on every bin
     with np.errstate(divide="ignore", invalid="ignore"):
-        r = np.log(np.maximum(measured, 1e-300) / np.maximum(expected, 1e-300)) - (digamma(nu / 2) - np.log(nu / 2))
-    return r, np.sqrt(polygamma(1, nu / 2))
+        r = np.log(np.maximum(measured, 1e-300) / np.maximum(expected, 1e-300)) - (digamma(half) - np.log(half))
+    return r, np.broadcast_to(np.sqrt(polygamma(1, half)), r.shape)
 
 
 def aggregate_z(r: np.ndarray, sd: np.ndarray, mask: np.ndarray) -> np.ndarray:

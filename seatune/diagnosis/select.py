@@ -26,7 +26,7 @@ from scipy.optimize import minimize
 from scipy.special import polygamma
 
 from seatune.diagnosis import residuals as res
-from seatune.diagnosis.model import SpectralModel, WindowSet
+from seatune.diagnosis.model import SpectralModel, WindowSet, spectra_in_sea
 from seatune.physics.response import trapezoid_weights
 
 BIN_CORRELATION = 1.5  # Hann window's equivalent noise bandwidth [bins]
@@ -181,7 +181,7 @@ class Diagnoser:
         for a in steps:
             for b in steps:
                 wave = shifted_wave(d.wave, d.omega_fine, d.tp, a * self.tp_std_s, b * self.dir_std_deg)
-                pred = np.einsum("fbc,wfb->wcf", power, wave)[..., d.kernel_index] @ d.kernel
+                pred = spectra_in_sea(power, wave)[..., d.kernel_index] @ d.kernel
                 r, _ = res.log_ratio(d.measured, pred, d.dof)
                 value = window_nll(r, d.mask, d.dof, self.tau, self.shape_var)[0] + 0.5 * (a * a + b * b)
                 better = value < best
