@@ -6,6 +6,7 @@ import sys
 from benchmarks import (
     bench_batch,
     bench_channel_sigma,
+    bench_day_run,
     bench_dbi,
     bench_diagnose,
     bench_filter,
@@ -23,7 +24,7 @@ BENCHMARKS = {"channel_sigma": bench_channel_sigma.run, "synthesis": bench_synth
               "ingest": bench_ingest.run, "ukf": bench_ukf.run, "dbi": bench_dbi.run, "batch": bench_batch.run,
               "predict": bench_predict.run, "diagnose": bench_diagnose.run,
               "modes": bench_modes.run, "sea": bench_sea.run,
-              "simulate_day": bench_simulate_day.run, "run_memory": bench_run_memory.run}
+              "simulate_day": bench_simulate_day.run, "day_run": bench_day_run.run, "run_memory": bench_run_memory.run}
 
 if __name__ == "__main__":
     names = sys.argv[1:] or list(BENCHMARKS)
