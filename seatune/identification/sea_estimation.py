@@ -21,10 +21,13 @@ neither fixes these):
   priors (log Hs, log Tp, direction, log spread, log γ); covariance (JᵀJ)⁻¹ scaled by the reduced χ² when
   the fit is worse than the noise model (model error the variance did not hold).
 * Missing partitions: a grid over (Tp, direction, Hs) of an added partition, its three best cells at least
-  90° apart refined; it is kept when its χ² gain on the residuals the loading hardly changes (design spread
-  < 0.15) exceeds BIC's k·ln n (k = 5; n those residuals / 2 for the correlation of adjacent Welch bins), its
-  Hs ≥ `min_hs`, and it is not a shape correction of a partition at the same period and direction; an added
-  system a later one made redundant is pruned. Partitions close in Tp and direction form one wave system.
+  90° apart refined; it is kept when, on the residuals the loading hardly changes (design spread < 0.15), its
+  likelihood ratio with the residual scale profiled out, n·ln(RSS₀/RSS₁), exceeds BIC's k·ln n (k = 5; n those
+  residuals / 2 for the correlation of adjacent Welch bins), its Hs ≥ `min_hs`, and it is not a shape correction
+  of a partition at the same period and direction; an added system a later one made redundant is pruned.
+  Partitions close in Tp and direction form one wave system. Profiling the scale matters: the assumed variances
+  hold model error, and a fixed-variance χ² gain held back crossing swells in well-fitted windows (bank, one
+  window in two: missing swells found 55 → 67 %, false systems 0.15 → 0.17 per window).
 """
 
 from __future__ import annotations
@@ -194,6 +197,7 @@ class _Problem:
 
 
 # a partition the hindcast lacks: weak priors (Hs ~ 0.5 m × e^±1.5, Tp ~ 12 s × e^±0.4), direction free
+N_PARAMS_ADDED = 5  # Hs, Tp, direction, spread, γ of an added partition
 _FREE_MEAN = np.array([np.log(0.5), np.log(12.0), 0.0, np.log(20.0), np.log(3.3)])
 _FREE_STD = np.array([1.5, 0.4, np.inf, 0.5, 0.5])
 _LOWER = np.array([np.log(0.02), np.log(3.0), -np.inf, np.log(4.0), np.log(1.0)])
@@ -265,13 +269,19 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
     anchor = la.std(axis=0) < 0.15  # (nω, nch)
     mask = problem.mask(anchor)
     n_eff = max(int(mask.sum()), 2) / 2.0  # adjacent Welch bins of a Hann window are correlated
+    penalty = N_PARAMS_ADDED * np.log(n_eff)  # BIC
+
+    def evidence(smaller, larger) -> float:
+        # likelihood ratio with the residuals' scale profiled out (F-test analogue): n ln(RSS₀/RSS₁)
+        rss0, rss1 = (float(np.sum(f.fun[: mask.size][mask] ** 2)) for f in (smaller, larger))
+        return n_eff * np.log(max(rss0, 1e-300) / max(rss1, 1e-300))
+
     while len(used) < max_partitions and anchor.any():
         cand_priors = [*used, None]
         trial = min((_fit(problem, start, cand_priors) for start in _search_added(problem, x, used, min_hs)),
                     key=lambda f: f.cost)
-        gain = float(np.sum(fit.fun[: mask.size][mask] ** 2) - np.sum(trial.fun[: mask.size][mask] ** 2))
         hs_new = float(np.exp(trial.x.reshape(-1, 5)[-1, 0]))
-        if gain <= 5 * np.log(n_eff) or hs_new < min_hs or _shape_correction(trial.x.reshape(-1, 5)):
+        if evidence(fit, trial) <= penalty or hs_new < min_hs or _shape_correction(trial.x.reshape(-1, 5)):
             break
         fit, x, used = trial, trial.x.reshape(-1, 5), cand_priors
     for k in reversed(range(len(priors), len(used))):  # prune: an added system a later one made redundant
@@ -279,8 +289,7 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
             break
         keep = [i for i in range(len(used)) if i != k]
         trial = _fit(problem, x[keep], [used[i] for i in keep])
-        loss = float(np.sum(trial.fun[: mask.size][mask] ** 2) - np.sum(fit.fun[: mask.size][mask] ** 2))
-        if loss <= 5 * np.log(n_eff):
+        if evidence(trial, fit) <= penalty:
             fit, x, used = trial, trial.x.reshape(-1, 5), [used[i] for i in keep]
     dof = max(problem.n_data - x.size, 1)
     chi2 = 2.0 * fit.cost / dof
