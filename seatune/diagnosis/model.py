@@ -9,8 +9,9 @@ interpolated to the analysis frequencies (power and phase for F, physics/interp.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
@@ -78,10 +79,18 @@ class ModelParts:
         """I44 + A44(ω_roll) about the origin [kg·m²]."""
         return self._roll[1]
 
+    solved: dict = field(default_factory=dict, repr=False)  # the last solve, shared by shallow copies
+
     def solve(self) -> np.ndarray:
         """Channel transfer functions H_j(ω, β): (nf, nb, nc) or (nw, nf, nb, nc)."""
+        key = (self.impedance, self.force, self.transfer)
+        last = self.solved.get("last")
+        if last is not None and all(a is b for a, b in zip(last[0], key, strict=True)):
+            return last[1]  # a sea-side effect changed only the waves
         xi = np.linalg.solve(self.impedance, np.swapaxes(self.force, -1, -2))  # (..., nf, 6, nb)
-        return np.swapaxes(xi, -1, -2) @ self.transfer  # Σ_d ξ_d t_dc: a batched matmul (BLAS), not einsum
+        h = np.swapaxes(xi, -1, -2) @ self.transfer  # Σ_d ξ_d t_dc: a batched matmul (BLAS), not einsum
+        self.solved["last"] = (key, h)  # holds the arrays, so their ids stay theirs
+        return h
 
     def spectra(self) -> np.ndarray:
         """S_j(ω) = Σ_β |H_j|² S(ω, β) Δβ per window: (nw, nc, nf)."""
@@ -119,12 +128,21 @@ class SpectralModel:
         from seatune.diagnosis.effects import vessel_effects
 
         self.known = vessel_effects(vessel.spec.effects)  # model-side effects already in the vessel YAML
+        self._recent: list = []  # (phi bytes, wave array) → ModelParts, most recent first
 
     def loading(self, phi: np.ndarray):
         return self.vessel.loading(**{n: float(v) for n, v in zip(self.parameter_names, phi, strict=True)})
 
     def parts(self, phi: np.ndarray) -> ModelParts:
-        return self.parts_of(self.loading(phi))
+        """ModelParts at loading parameters phi; a fresh shallow copy of the last few (a finite-difference
+        gradient over an effect's parameters asks for the same loading again; effects rebind, never mutate)."""
+        key = (np.asarray(phi, dtype=float).tobytes(), self.data.wave if self.data is not None else None)
+        for k, parts in self._recent:
+            if k[0] == key[0] and k[1] is key[1]:
+                return copy.copy(parts)
+        parts = self.parts_of(self.loading(phi))
+        self._recent = [(key, parts), *self._recent[:3]]
+        return copy.copy(parts)
 
     def parts_of(self, loading) -> ModelParts:
         """ModelParts of one loading condition (a Loading of length 1)."""
