@@ -254,6 +254,20 @@ def test_unknown_effect_is_one_clear_line_and_exit_2(diagnosed):
     assert (tmp / "run" / "diagnosis.parquet").read_bytes() == before  # nothing already written is lost
 
 
+def test_too_few_calibration_replicas_for_the_false_alarm_rate_is_one_line_and_exit_2(diagnosed):
+    tmp, path, _ = diagnosed
+    import yaml
+
+    data = yaml.safe_load(path.read_text())
+    data["diagnose"] = {"calibration": {"replicates": 9, "false_alarm": 0.05}}
+    bad = tmp / "few.yaml"
+    bad.write_text(yaml.safe_dump(data))
+    res = run_cli("diagnose", bad)
+    assert res.returncode == 2
+    assert res.stderr.strip().count("\n") == 0
+    assert "diagnose.calibration" in res.stderr and "at least 19" in res.stderr
+
+
 @pytest.mark.slow
 def test_full_simulated_trial_with_a_tank_is_diagnosed(tmp_path):
     """`seatune simulate` hides an anti-roll tank in the sample scenario; `seatune diagnose` names it and the

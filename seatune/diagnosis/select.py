@@ -18,12 +18,14 @@ lets any candidate "explain" the sea's own sampling noise on the training window
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import minimize
-from scipy.special import polygamma
+from scipy.special import digamma, polygamma
 
 from seatune.diagnosis import residuals as res
 from seatune.diagnosis.model import SpectralModel, WindowSet, spectra_in_sea
@@ -35,6 +37,86 @@ HOLDOUT_MIN = 4.0  # held-out log-likelihood gain [nats] to name an effect (Jeff
 COMMON_SHARE = 0.8  # share of the χ² sampling variance common to all channels at a frequency
 INDEPENDENT_FLOOR = 0.05**2  # per-channel, per-bin variance no model resolves (sensor noise, small effects)
 TP_FLANK_SLOPE = 4.0  # |d ln S / d ln ω| on a JONSWAP flank: a Tp error δ moves ln S by about 4 δ/Tp
+
+
+@dataclass(frozen=True)
+class NullSea:
+    """The calibration's null: the model without effect in a sea that differs from the one diagnose uses by what
+    a sea estimate gets wrong (per window, one draw each for the whole sea), and a vessel model off by a smooth
+    error. Defaults: the estimated sea's errors on the blind trial bank (Hs ≈ 10 %, Tp ≈ 4 %, direction ≈ 10°;
+    spreading not resolved finer than ≈ 10°); the clean trials' systematic misfit of ln S is ≈ 0.2 RMS with
+    sampling noise, 0.15 without. The run YAML's `diagnose.calibration` sets them (replicates 0 there: off)."""
+
+    replicates: int = 19  # 19: the smallest p is 1/20, so a 5 % test is possible
+    false_alarm: float = 0.05
+    hs_rel_std: float = 0.10
+    tp_rel_std: float = 0.04
+    dir_std_deg: float = 10.0
+    spread_deg: float = 10.0  # scale of an extra cos-2s spreading (half-normal)
+    model_error: float = 0.15  # RMS of a smooth per-channel error of the vessel model's ln S, the same in all windows
+    model_error_scale: float = 0.1  # its correlation length in ω [rad/s]
+    seed: int = 0
+
+
+def perturbed_wave(wave: np.ndarray, omega: np.ndarray, rng: np.random.Generator, null: NullSea) -> np.ndarray:
+    """One draw of the null's sea: per window (nw, nm, nb) Hs scaled, Tp scaled self-similarly (S' = r S(ω r)),
+    directions turned and spread wider, on equally spaced directions."""
+    from seatune.physics.spectra import cos2s_s_from_spread, spreading_cos2s
+
+    nw, nm, nb = wave.shape
+    hs = np.exp(null.hs_rel_std * rng.standard_normal(nw))
+    ratio = np.exp(null.tp_rel_std * rng.standard_normal(nw))
+    turn = null.dir_std_deg * rng.standard_normal(nw) * nb / 360.0  # in direction bins
+    spread = np.abs(null.spread_deg * rng.standard_normal(nw))
+    beta = np.arange(nb) * 2 * np.pi / nb
+    out = np.empty_like(wave)
+    for w in range(nw):
+        pos = omega * ratio[w]
+        j = np.clip(np.searchsorted(omega, pos), 1, nm - 1)
+        t = ((pos - omega[j - 1]) / (omega[j] - omega[j - 1]))[:, None]
+        inside = ((pos >= omega[0]) & (pos <= omega[-1]))[:, None]
+        s = ratio[w] * hs[w] ** 2 * inside * ((1 - t) * wave[w, j - 1] + t * wave[w, j])
+        k = int(np.floor(turn[w]))
+        f = turn[w] - k
+        s = (1 - f) * np.roll(s, k, axis=1) + f * np.roll(s, k + 1, axis=1)
+        if spread[w] >= 1.0:
+            kernel = spreading_cos2s(beta - beta[:, None], float(cos2s_s_from_spread(np.radians(spread[w]))))
+            s = s @ (kernel / kernel.sum(axis=0, keepdims=True)).T
+        out[w] = s
+    return out
+
+
+def model_error_draw(omega: np.ndarray, n_channels: int, rng: np.random.Generator, rms: float,
+                     scale: float) -> np.ndarray:
+    """A smooth error of the vessel model's log spectra per channel (nc, nf): a Gaussian process in ω with a
+    squared-exponential kernel (what no loading parameter fixes: hull-form and BEM error, the structural
+    discrepancy of Kennedy & O'Hagan 2001)."""
+    if rms <= 0:
+        return np.zeros((n_channels, omega.size))
+    d = omega[:, None] - omega[None, :]
+    k = rms**2 * np.exp(-0.5 * (d / scale) ** 2) + 1e-10 * rms**2 * np.eye(omega.size)
+    return rng.standard_normal((n_channels, omega.size)) @ np.linalg.cholesky(k).T
+
+
+def _bin_correlated(z: np.ndarray) -> np.ndarray:
+    """Unit-variance noise along the last axis with neighbour correlation such that n bins count n / 1.5
+    (BIN_CORRELATION): a 3-tap moving average [a, 1, a], (1 + 2a)² / (1 + 2a²) = 1.5."""
+    c = BIN_CORRELATION
+    a = (-4.0 + np.sqrt(16.0 - 4.0 * (4.0 - 2.0 * c) * (1.0 - c))) / (2.0 * (4.0 - 2.0 * c))
+    padded = np.concatenate([z[..., :1], z, z[..., -1:]], axis=-1)
+    return (padded[..., 1:-1] + a * (padded[..., :-2] + padded[..., 2:])) / np.sqrt(1.0 + 2.0 * a * a)
+
+
+def sampled_spectra(expected: np.ndarray, dof: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Welch estimates of expected spectra (nw, nc, nf) with ν = dof (nw, nc): ln Ŝ = ln E + ψ(ν/2) − ln(ν/2) +
+    noise of variance ψ′(ν/2) (the χ²_ν law's log moments), 80 % of it common to the channels (one sea drives
+    them), plus the per-channel floor — the likelihood's own noise model (window_nll)."""
+    half = np.asarray(dof, dtype=float)[..., None] / 2
+    common = _bin_correlated(rng.standard_normal((expected.shape[0], 1, expected.shape[2])))
+    own = _bin_correlated(rng.standard_normal(expected.shape))
+    z = np.sqrt(COMMON_SHARE) * common + np.sqrt(1 - COMMON_SHARE) * own
+    noise = np.sqrt(polygamma(1, half)) * z + np.sqrt(INDEPENDENT_FLOOR) * rng.standard_normal(expected.shape)
+    return np.maximum(expected, 1e-300) * np.exp(digamma(half) - np.log(half) + noise)
 
 
 def window_nll(r: np.ndarray, mask: np.ndarray, dof: np.ndarray, tau: float, shape_var: np.ndarray):
@@ -70,7 +152,9 @@ class Fit:
 
 class Diagnoser:
     def __init__(self, vessel, parameters, data: WindowSet, phi_start: np.ndarray, hs_rel_std: float = 0.1,
-                 tp_std_s: float = 0.0, dir_std_deg: float = 0.0):
+                 tp_std_s: float = 0.0, dir_std_deg: float = 0.0, null: NullSea | None = None):
+        """`null`: calibrate the decision by a parametric bootstrap (None or 0 replicates: the fixed rule)."""
+        self.null = null
         self.vessel = vessel
         self.parameters = list(parameters)
         self.data = data
@@ -207,11 +291,8 @@ class Diagnoser:
     def run(self, effects, phi_before: np.ndarray | str | None = None) -> Diagnosis:
         """`phi_before`: the tuned loading the gap is measured from (default the start); "refit": the loading
         refitted here without any effect (what a tuning on these windows gives)."""
-        base = self.fit(None)
-        if self.tp_std_s > 0 or self.dir_std_deg > 0:  # the windows' sea states as the data see them, then refit
-            self.data.wave = self.sea_state_search(base.phi)
-            self._base = None
-            base = self.fit(None)
+        wave_given = self.data.wave
+        base = self._base_fit()
         if isinstance(phi_before, str):
             phi_before = base.phi
         phi_before = self.phi_start if phi_before is None else np.asarray(phi_before, dtype=float)
@@ -239,19 +320,17 @@ class Diagnoser:
             before, after_ = self._gaps(r0, sd0, pred0, select), self._gaps(rf, sdf, predf, select)
             gaps[f.effect] = {**{f"{k}_before": v for k, v in before.items()},
                               **{f"{k}_after": v for k, v in after_.items()}}
-        best = None
         for row in rows:
             f = row["fit"]
-            if np.isfinite(row["gain_holdout"]):
-                score = row["gain_holdout"]
-                strong = row["gain_train"] > row["bic_penalty"] and score > HOLDOUT_MIN
-            else:  # no held-out window: the information criterion alone decides
-                score = row["gain_train"] - row["bic_penalty"]
-                strong = score > HOLDOUT_MIN
+            row["score"] = _score(row["gain_train"], row["gain_holdout"], row["bic_penalty"])
+            strong = row["score"] > HOLDOUT_MIN and (row["gain_train"] > row["bic_penalty"]
+                                                     or not np.isfinite(row["gain_holdout"]))
             row["eligible"] = bool(f.n_params > 0 and strong and not row["at_bound"])
-            if row["eligible"] and (best is None or score > best[0]):
-                best = (score, f)
-        winner = best[1] if best else None
+            row["false_alarm_p"] = row["null_gain_q95"] = np.nan
+        if self.null is not None and self.null.replicates > 0:
+            self._calibrate(rows, by_name, base, wave_given)
+        best = max((r for r in rows if r["eligible"]), key=lambda r: r["score"], default=None)
+        winner = best["fit"] if best else None
         after = winner or base
         r1, sd1, _ = cache[after.effect]
         left = {f.effect: res.bands(train_data, cache[f.effect][0][self.train], cache[f.effect][1][self.train],
@@ -259,6 +338,71 @@ class Diagnoser:
         return Diagnosis(rows=rows, winner=winner, base=base, phi_before=phi_before, bands_before=found,
                          bands_after=left, residual_before=(r0, sd0), residual_after=(r1, sd1), gaps=gaps,
                          parameter_names=tuple(p.name for p in self.parameters))
+
+    def _base_fit(self) -> Fit:
+        """The loading refitted without effect; first the windows' sea states as the data see them when the
+        hindcast's Tp and direction are uncertain."""
+        base = self.fit(None)
+        if self.tp_std_s > 0 or self.dir_std_deg > 0:
+            self.data.wave = self.sea_state_search(base.phi)
+            self._base = None
+            base = self.fit(None)
+        return base
+
+    def _calibrate(self, rows, by_name, base: Fit, wave_given: np.ndarray) -> None:
+        """Parametric bootstrap of the decision (issue 17): data simulated from the model without effect in a sea
+        drawn around the one diagnose found (NullSea), diagnosed as the real data, give each candidate's null
+        distribution of its score; p = (1 + #{null ≥ observed}) / (n + 1) over the n replicas drawn (Davison &
+        Hinkley 1997 eq. 4.11), stopping once the test cannot pass. Candidates are tested strongest first and the
+        first with p ≤ false_alarm is named; weaker ones are not tested (a stronger one won)."""
+        null = self.null
+        order = sorted((r for r in rows if r["eligible"]), key=lambda r: -r["score"])
+        rng = np.random.default_rng(null.seed)
+        replicas = []
+
+        def replica(b):
+            while len(replicas) <= b:  # drawn once, shared by the candidates
+                replicas.append(self._null_replica(base, wave_given, rng))
+            return replicas[b]
+
+        for row in order:
+            effect = by_name[row["fit"].effect]
+            scores = []
+            for b in range(null.replicates):
+                rep, rep_base, bands = replica(b)
+                f = rep.fit(effect, bands)
+                scores.append(_score(rep_base.nll_train - f.nll_train, rep_base.nll_holdout - f.nll_holdout,
+                                     row["bic_penalty"]))
+                exceed = sum(v >= row["score"] for v in scores)
+                if (1 + exceed) / (null.replicates + 1) > null.false_alarm:
+                    break  # cannot pass any more: the Monte Carlo p-value over the replicas drawn so far
+            scores = np.array(scores)
+            row["false_alarm_p"] = float((1 + np.sum(scores >= row["score"])) / (scores.size + 1))
+            row["null_gain_q95"] = float(np.quantile(scores, 0.95))
+            row["eligible"] = row["false_alarm_p"] <= null.false_alarm
+            if row["eligible"]:
+                break
+
+    def _null_replica(self, base: Fit, wave_given: np.ndarray, rng: np.random.Generator):
+        """(replica Diagnoser, its base fit, its misfit bands) of one dataset drawn under the null."""
+        truth = copy.copy(self.model)
+        truth.data = dataclasses.replace(self.data, wave=perturbed_wave(self.data.wave, self.data.omega_fine, rng,
+                                                                        self.null))
+        expected = truth.spectra(base.phi) * np.exp(model_error_draw(
+            self.data.omega, len(self.data.channels), rng, self.null.model_error, self.null.model_error_scale))[None]
+        measured = sampled_spectra(expected, self.data.dof, rng)
+        rep = copy.copy(self)
+        rep.data = dataclasses.replace(self.data, measured=measured, wave=wave_given)
+        rep.model = copy.copy(self.model)
+        rep.model.data = rep.data
+        rep._base, rep.null = None, None
+        rep.phi_start = base.phi  # the null's loading: where the replica's fits start
+        if rep.tp_std_s > 0 or rep.dir_std_deg > 0:  # its sea search at the null's loading, then one fit
+            rep.data.wave = rep.sea_state_search(base.phi)
+        rep_base = rep.fit(None)
+        r0, sd0, _ = rep.residuals(rep.phi_start)
+        bands = res.bands(rep.data.subset(rep.train), r0[rep.train], sd0[rep.train], rep.modes(rep.phi_start))
+        return rep, rep_base, bands
 
     def _gaps(self, r, sd, pred, select) -> dict:
         out = {}
@@ -290,6 +434,11 @@ def shifted_wave(wave: np.ndarray, omega: np.ndarray, tp: np.ndarray, d_tp: floa
         f = shift - k
         out = (1 - f) * np.roll(out, k, axis=2) + f * np.roll(out, k + 1, axis=2)
     return out
+
+
+def _score(gain_train: float, gain_holdout: float, bic_penalty: float) -> float:
+    """A candidate's evidence: its held-out gain, or without held-out windows its training gain less BIC's."""
+    return gain_holdout if np.isfinite(gain_holdout) else gain_train - bic_penalty
 
 
 def _at_bound(effect, params: dict) -> list[str]:

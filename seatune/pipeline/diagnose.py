@@ -28,6 +28,8 @@ DIAGNOSIS_UNITS = {
     "fitted_std": "text; JSON", "fitted_units": "text; JSON", "loading": "text; JSON, loading parameter units (SI)",
     "nll_train": "dimensionless; nat", "nll_holdout": "dimensionless; nat", "gain_train": "dimensionless; nat",
     "gain_holdout": "dimensionless; nat", "bic_penalty": "dimensionless; nat",
+    "false_alarm_p": "dimensionless; probability under the null (no effect, sea within its errors); NaN: not tested",
+    "null_gain_q95": "dimensionless; nat, the null's 95 % quantile of the score (held-out gain)",
     "at_bound": "", "eligible": "", "selected": "", "gap_before_train": "dimensionless",
     "gap_after_train": "dimensionless", "gap_before_holdout": "dimensionless",
     "gap_after_holdout": "dimensionless", "sigma_error_before_train": "dimensionless",
@@ -115,6 +117,13 @@ def window_set(run, vessel, channels):
                      np.array([r.heading_deg for r in rows]), np.array([r.sog for r in rows]))
 
 
+def null_sea(calibration):
+    """The run YAML's diagnose.calibration as the selection's NullSea."""
+    from seatune.diagnosis.select import NullSea
+
+    return NullSea(**calibration.model_dump())
+
+
 def diagnosis_table(diag, effects) -> pd.DataFrame:
     from seatune.diagnosis.residuals import describe
 
@@ -132,7 +141,8 @@ def diagnosis_table(diag, effects) -> pd.DataFrame:
             "fitted_units": json.dumps({q.name: q.unit for q in eff.parameters} if eff else {}),
             "loading": json.dumps({p: round(float(v), 6) for p, v in zip(diag.parameter_names, f.phi, strict=True)}),
             "nll_train": f.nll_train, "nll_holdout": f.nll_holdout, "gain_train": r["gain_train"],
-            "gain_holdout": r["gain_holdout"], "bic_penalty": r["bic_penalty"], "at_bound": r["at_bound"],
+            "gain_holdout": r["gain_holdout"], "bic_penalty": r["bic_penalty"],
+            "false_alarm_p": r["false_alarm_p"], "null_gain_q95": r["null_gain_q95"], "at_bound": r["at_bound"],
             "eligible": bool(r["eligible"]),
             "selected": diag.winner is not None and f is diag.winner,
             **{f"{k}_{when}_{role}": g[f"{k}_{role}_{when}"] for k in ("gap", "sigma_error")
@@ -211,7 +221,8 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     diag = Diagnoser(vessel, parameters, data, tuned_phi(run, parameters),
                      hs_rel_std=run.spec.hindcast.uncertainty.hs_rel_std,
                      tp_std_s=run.spec.hindcast.uncertainty.tp_std_s,
-                     dir_std_deg=run.spec.hindcast.uncertainty.dir_std_deg).run(effects)
+                     dir_std_deg=run.spec.hindcast.uncertainty.dir_std_deg,
+                     null=null_sea(settings.calibration)).run(effects)
     train = data.roles == "train"
     by_name = {e.name: e for e in effects}
     table = diagnosis_table(diag, effects)
@@ -226,6 +237,9 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     row = chosen.iloc[0] if len(chosen) else table[table["effect"] == "none"].iloc[0]
     return {"skipped": False, "windows": len(data.window_ids), "holdout": int((~train).sum()),
             "candidates": len(table) - 1, "named": diag.named, "gain_holdout": float(row["gain_holdout"]),
+            "false_alarm_p": float(row["false_alarm_p"]),
+            "not_significant": [f"{r.effect} (p {r.false_alarm_p:.2g})" for r in table.itertuples()
+                                if np.isfinite(r.false_alarm_p) and not r.eligible],
             "fitted": json.loads(row["fitted"]), "bands_before": [describe(b) for b in diag.bands_before],
             "bands_after": row["bands_after"], "gap_before": float(row["gap_before_holdout"]),
             "gap_after": float(row["gap_after_holdout"]),

@@ -69,10 +69,14 @@ def _diagnose_line(s: dict, seconds: float) -> str:
            f"{100 * s['sigma_after']:.1f} %")
     if s["named"]:
         fitted = ", ".join(f"{k} {v:.3g}" for k, v in s["fitted"].items())
-        verdict = (f"named {s['named']} ({fitted}; held-out gain {s['gain_holdout']:.1f} nats), {gap}; "
+        p = s.get("false_alarm_p", float("nan"))
+        tested = f", false-alarm p {p:.2g}" if p == p else ""
+        verdict = (f"named {s['named']} ({fitted}; held-out gain {s['gain_holdout']:.1f} nats{tested}), {gap}; "
                    f"augmented vessel: {s['augmented']}")
     elif s["bands_before"]:
-        verdict = "no known effect explains the misfit (unexplained, see diagnosis.parquet)"
+        rejected = s.get("not_significant") or []
+        verdict = "no known effect explains the misfit (unexplained, see diagnosis.parquet)" + (
+            f"; not significant against the calibrated null: {', '.join(rejected)}" if rejected else "")
     else:
         verdict = "no effect needed"
     return (f"diagnose: {s['candidates']} candidate effects on {s['windows']} windows ({s['holdout']} held out); "
