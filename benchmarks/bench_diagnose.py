@@ -117,4 +117,37 @@ def run() -> dict:
             out[f"{effect}_seatune_s"] = round(our_s, 4)
             out[f"{effect}_ratio"] = round(ref_s / our_s, 1)
             out[f"{effect}_max_rel_diff"] = float(np.max(np.abs(val - ref) / np.abs(ref)))
+    out.update(_calibration_cost(vessel))
     return out
+
+
+def _calibration_cost(vessel) -> dict:
+    """The whole selection on a 9-window hidden-moonpool trial without and with the calibrated decision (19 null
+    replicas; the candidate passes, so every replica is fitted): the calibration's cost as a ratio."""
+    import time
+
+    from seatune.diagnosis.select import Diagnoser, NullSea
+    from tests import diagnosis_trials as trials
+
+    null = NullSea(hs_rel_std=0.05, tp_rel_std=0.0, dir_std_deg=0.0, spread_deg=0.0, model_error=0.05)
+    effects = ["moonpool", "anti_roll_tank", "imu_lever_arm", "imu_misalignment", "hs_bias"]
+    seconds, named = {}, {}
+    run = Diagnoser.run
+
+    def timed(self, *args, **kwargs):  # the selection only, not the trial's time-domain simulation
+        t = time.perf_counter()
+        try:
+            return run(self, *args, **kwargs)
+        finally:
+            seconds[current] = time.perf_counter() - t
+
+    Diagnoser.run = timed
+    try:
+        for current, n in (("uncalibrated", None), ("calibrated", null)):
+            named[current] = trials.trial(vessel, "moonpool", 0, null=n, effects=effects)[0].named
+    finally:
+        Diagnoser.run = run
+    return {"selection_uncalibrated_s": round(seconds["uncalibrated"], 1),
+            "selection_calibrated_s": round(seconds["calibrated"], 1),
+            "calibration_cost_ratio": round(seconds["calibrated"] / seconds["uncalibrated"], 1),
+            "named_uncalibrated": named["uncalibrated"], "named_calibrated": named["calibrated"]}
