@@ -134,7 +134,9 @@ class SeaSettings(Strict):
 
     estimate: bool = True  # false: every stage takes the hindcast's sea as given
     channels: list[str] | None = None  # default: the vessel's angle and translational channels in the motions
-    max_partitions: Annotated[int, Field(ge=1, le=3)] = 3  # wind sea + up to two swells
+    # wind sea and swells, counting a partition the search added and kept (a missing swell often comes second, after
+    # a system the hindcast's shape lacked)
+    max_partitions: Annotated[int, Field(ge=1, le=4)] = 4
     min_hs: PositiveFloat = 0.3  # an added partition (absent from the hindcast) must reach this Hs [m]
     omega_min: PositiveFloat = 0.25  # fitted band [rad/s]
     omega_max: PositiveFloat = 2.0
