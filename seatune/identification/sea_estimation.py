@@ -42,7 +42,19 @@ from scipy import optimize, signal
 TWO_PI = 2.0 * np.pi
 FIELDS = ("hs", "tp", "dir_from_deg", "spread_deg", "gamma")
 DIRS_FROM = np.arange(72) * 5.0  # the estimate's direction grid [deg, coming-from]
-_OMEGA_NORM = np.geomspace(0.05, 8.0, 240)  # where each partition's shape is normalised to m0 = Hs²/16
+
+
+def _jonswap_shape(u: np.ndarray, gamma: np.ndarray) -> np.ndarray:
+    """The JONSWAP shape in u = ω/ω_p (σa 0.07, σb 0.09), u and γ broadcast: S(ω) ∝ ω_p⁻⁵ × this at u = ω/ω_p."""
+    r = np.where(u <= 1.0, 0.07, 0.09)
+    return u**-5.0 * np.exp(-1.25 * u**-4.0) * gamma ** np.exp(-((u - 1.0) ** 2) / (2 * r**2))
+
+
+# ∫ shape du per ln γ over the fitted range (1–7), tabulated once: m0 = ω_p⁻⁴ × this (self-similar in Tp); linear
+# interpolation in ln γ is within 1e-5 of the integral
+_U = np.geomspace(0.2, 30.0, 6000)
+_LOG_GAMMA = np.linspace(0.0, np.log(7.0), 385)
+_SHAPE_INTEGRAL = np.trapezoid(_jonswap_shape(_U[None, :], np.exp(_LOG_GAMMA)[:, None]), _U, axis=1)
 
 
 @dataclass(frozen=True)
@@ -123,17 +135,11 @@ def partition_spectrum(omega: np.ndarray, dirs_from_deg: np.ndarray, x: np.ndarr
 
     JONSWAP (σa 0.07, σb 0.09) normalised numerically to Hs²/16; cos-2s spreading with s = 2/σθ² − 1 (Kuik et al.
     1988), normalised on the discrete direction grid."""
-    hs, tp = np.exp(x[:, 0]), np.exp(x[:, 1])
+    hs, wp = np.exp(x[:, 0]), TWO_PI / np.exp(x[:, 1])
     spread, gamma = np.radians(np.exp(x[:, 3])), np.exp(x[:, 4])
-
-    def shape(om):
-        wp = TWO_PI / tp[:, None]
-        r = np.where(om[None, :] <= wp, 0.07, 0.09)
-        pm = np.where(om > 0, om, 1.0)[None, :] ** -5.0 * np.exp(-1.25 * (wp / np.maximum(om, 1e-9)[None, :]) ** 4)
-        return pm * gamma[:, None] ** np.exp(-((om[None, :] - wp) ** 2) / (2 * r**2 * wp**2))
-
-    m0 = np.trapezoid(shape(_OMEGA_NORM), _OMEGA_NORM, axis=1)
-    s1 = shape(omega) * (hs**2 / 16.0 / m0)[:, None]  # (P, nω)
+    shape = _jonswap_shape(np.maximum(omega, 1e-9)[None, :] / wp[:, None], gamma[:, None])
+    m0 = np.interp(x[:, 4], _LOG_GAMMA, _SHAPE_INTEGRAL)  # of the shape in u: the ω_p⁻⁵ and dω = ω_p du cancel
+    s1 = shape * (hs**2 / 16.0 / (m0 * wp))[:, None]  # (P, nω)
     s = np.maximum(2.0 / spread**2 - 1.0, 0.0)
     theta = np.radians(dirs_from_deg[None, :] - x[:, 2:3])
     d = np.clip(np.cos(0.5 * theta), 0.0, None) ** (2.0 * s[:, None])  # cos-2s, unnormalised
