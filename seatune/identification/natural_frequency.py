@@ -42,10 +42,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from scipy import optimize, stats
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = [
     "G",
@@ -679,3 +682,12 @@ def gm_from_roll_u(
         "a44": omega4**2 / (mass * g),
     }
     return _derived(gm, partials, {"omega4": std_omega4, "mass": std_mass, "r44": std_r44, "a44": std_a44})
+
+
+def primary_natural_frequencies(nf: pd.DataFrame) -> pd.DataFrame:
+    """One combined estimate per DOF of natural_frequencies.parquet (window 'all', not a derived row): the
+    admittance SDOF fit where there is one, a value before a reason it has none; indexed by DOF."""
+    rows = nf[(nf["window_id"] == "all") & nf["derived"].isna()] if "derived" in nf else nf[nf["window_id"] == "all"]
+    rows = rows.assign(_pref=(rows["method"] != "admittance_peak_sdof").astype(int)
+                       + 2 * rows["omega_n"].isna().astype(int))  # a value before a reason it has none
+    return rows.sort_values("_pref", kind="stable").drop_duplicates("dof").drop(columns="_pref").set_index("dof")

@@ -196,7 +196,7 @@ def mode_inputs(run, vessel, parameters):
     ω_n pins the ridge. None without natural_frequencies.parquet or a mode with a finite interval."""
     from scipy.stats import norm
 
-    from seatune.report.summary import primary_natural_frequencies
+    from seatune.identification.natural_frequency import primary_natural_frequencies
     from seatune.tuning.forward import ModeFrequencies
     from seatune.tuning.interface import Observation, SeaState
 

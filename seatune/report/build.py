@@ -10,17 +10,11 @@ import numpy as np
 import pandas as pd
 
 from seatune.diagnosis.select import HOLDOUT_MIN
+from seatune.identification.natural_frequency import primary_natural_frequencies
 from seatune.report import html as H
 from seatune.report import plots as P
 from seatune.report.inputs import ReportInputs
-from seatune.report.summary import (
-    DOFS,
-    PARAMETER_UNITS,
-    defect_counts,
-    derived_values,
-    posterior_table,
-    primary_natural_frequencies,
-)
+from seatune.report.summary import DOFS, PARAMETER_UNITS, defect_counts, derived_values, posterior_table
 
 # What ingest did about each defect it counts (seatune/pipeline/motions.py, ingest.py)
 DEFECTS = {

@@ -7,6 +7,7 @@ import re
 import numpy as np
 import pandas as pd
 
+from seatune.identification.natural_frequency import primary_natural_frequencies
 from seatune.report.inputs import ReportInputs
 
 DOFS = ("Heave", "Roll", "Pitch")
@@ -16,14 +17,6 @@ PARAMETER_UNITS = {"mass": "kg", "displacement": "m^3", "xcg": "m", "ycg": "m", 
                    "r66": "m", "gmt_fs": "m", "gml_fs": "m", "beta33": "dimensionless",
                    "beta44": "dimensionless", "beta55": "dimensionless"}
 NOT_DEFECTS = ("records",)  # ingest counts that describe the data rather than a repair
-
-
-def primary_natural_frequencies(nf: pd.DataFrame) -> pd.DataFrame:
-    """One combined estimate per DOF (window 'all'): the admittance SDOF fit where there is one."""
-    rows = nf[(nf["window_id"] == "all") & nf["derived"].isna()] if "derived" in nf else nf[nf["window_id"] == "all"]
-    rows = rows.assign(_pref=(rows["method"] != "admittance_peak_sdof").astype(int)
-                       + 2 * rows["omega_n"].isna().astype(int))  # a value before a reason it has none
-    return rows.sort_values("_pref", kind="stable").drop_duplicates("dof").drop(columns="_pref").set_index("dof")
 
 
 def derived_values(nf: pd.DataFrame) -> dict[str, tuple[float, float, str, str]]:

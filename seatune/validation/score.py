@@ -53,8 +53,8 @@ def heldout_error(validation: pd.DataFrame | None, column: str) -> float:
 
 def primary_modes(nf: pd.DataFrame | None) -> dict[str, dict]:
     """{dof: {omega_n, ci_low, ci_high, reason}} of identify's combined estimate, as the report picks it
-    (`report.summary.primary_natural_frequencies`), lower-case DOF names."""
-    from seatune.report.summary import primary_natural_frequencies
+    (`identification.natural_frequency.primary_natural_frequencies`), lower-case DOF names."""
+    from seatune.identification.natural_frequency import primary_natural_frequencies
 
     if nf is None or nf.empty:
         return {}
