@@ -270,8 +270,8 @@ class PredictSettings(Strict):
 
 
 class DiagnoseCalibration(Strict):
-    """The false-alarm test of a named effect: a parametric bootstrap under a sea that errs as estimates do
-    (seatune/diagnosis/select.py NullSea; the defaults are its)."""
+    """The false-alarm test of a named effect: a parametric bootstrap under a sea that errs as estimates do and a
+    vessel model with a smooth error (seatune/diagnosis/select.py NullSea, whose error defaults these are)."""
 
     # 0 (default): the fixed held-out-gain rule alone. 19 gives a 5 % test; not the default until its null holds the
     # misfit real trials show: on 8 blind-bank trials it dropped 1 of 5 false alarms and lost 1 of 2 hits, at 3–10×
