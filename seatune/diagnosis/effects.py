@@ -257,13 +257,16 @@ class WaveSpreading(Effect):
     parameters = (EffectParameter("spread_deg", "deg", 3.0, 3.0, 80.0, scan=(3.0, 10.0, 25.0, 45.0)),)
 
     def apply(self, parts, params, model):
-        from seatune.physics.spectra import cos2s_s_from_spread, spreading_cos2s
+        parts.wave = parts.wave @ spreading_kernel(parts.beta, params["spread_deg"]).T
 
-        beta = parts.beta
-        s = float(cos2s_s_from_spread(np.radians(params["spread_deg"])))
-        kernel = spreading_cos2s(beta - beta[:, None], s)  # (nb_out, nb_in)
-        kernel = kernel / kernel.sum(axis=0, keepdims=True)
-        parts.wave = np.einsum("ob,wfb->wfo", kernel, parts.wave)
+
+def spreading_kernel(beta: np.ndarray, spread_deg: float) -> np.ndarray:
+    """(nb_out, nb_in) redistribution of S(ω, β)·Δβ over directions β [rad] by a cos-2s of directional spread
+    `spread_deg`; its columns sum to 1, so each frequency keeps its energy (`wave @ kernel.T`)."""
+    from seatune.physics.spectra import cos2s_s_from_spread, spreading_cos2s
+
+    kernel = spreading_cos2s(beta - beta[:, None], float(cos2s_s_from_spread(np.radians(spread_deg))))
+    return kernel / kernel.sum(axis=0, keepdims=True)
 
 
 def _direction_weights(beta_deg: np.ndarray, grid_deg: np.ndarray) -> np.ndarray:

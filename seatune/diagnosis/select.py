@@ -59,30 +59,19 @@ class NullSea:
 
 
 def perturbed_wave(wave: np.ndarray, omega: np.ndarray, rng: np.random.Generator, null: NullSea) -> np.ndarray:
-    """One draw of the null's sea: per window (nw, nm, nb) Hs scaled, Tp scaled self-similarly (S' = r S(ω r)),
-    directions turned and spread wider, on equally spaced directions."""
-    from seatune.physics.spectra import cos2s_s_from_spread, spreading_cos2s
+    """One draw of the null's sea: per window (nw, nm, nb) Hs scaled, Tp scaled self-similarly, directions turned
+    and spread wider, on equally spaced directions."""
+    from seatune.diagnosis.effects import spreading_kernel
 
-    nw, nm, nb = wave.shape
+    nw, _, nb = wave.shape
     hs = np.exp(null.hs_rel_std * rng.standard_normal(nw))
     ratio = np.exp(null.tp_rel_std * rng.standard_normal(nw))
-    turn = null.dir_std_deg * rng.standard_normal(nw) * nb / 360.0  # in direction bins
+    turn = null.dir_std_deg * rng.standard_normal(nw)
     spread = np.abs(null.spread_deg * rng.standard_normal(nw))
+    out = hs[:, None, None] ** 2 * turned(scaled_in_frequency(wave, omega, ratio), turn)
     beta = np.arange(nb) * 2 * np.pi / nb
-    out = np.empty_like(wave)
-    for w in range(nw):
-        pos = omega * ratio[w]
-        j = np.clip(np.searchsorted(omega, pos), 1, nm - 1)
-        t = ((pos - omega[j - 1]) / (omega[j] - omega[j - 1]))[:, None]
-        inside = ((pos >= omega[0]) & (pos <= omega[-1]))[:, None]
-        s = ratio[w] * hs[w] ** 2 * inside * ((1 - t) * wave[w, j - 1] + t * wave[w, j])
-        k = int(np.floor(turn[w]))
-        f = turn[w] - k
-        s = (1 - f) * np.roll(s, k, axis=1) + f * np.roll(s, k + 1, axis=1)
-        if spread[w] >= 1.0:
-            kernel = spreading_cos2s(beta - beta[:, None], float(cos2s_s_from_spread(np.radians(spread[w]))))
-            s = s @ (kernel / kernel.sum(axis=0, keepdims=True)).T
-        out[w] = s
+    for w in np.flatnonzero(spread >= 1.0):
+        out[w] = out[w] @ spreading_kernel(beta, spread[w]).T
     return out
 
 
@@ -420,19 +409,32 @@ class Diagnoser:
 
 
 def shifted_wave(wave: np.ndarray, omega: np.ndarray, tp: np.ndarray, d_tp: float, d_dir_deg: float) -> np.ndarray:
-    """S(ω, β)·Δβ per window (nw, nm, nb) with Tp moved by d_tp (self-similar: S' = r S(ω r), r = Tp'/Tp) and
-    the directions turned by d_dir_deg (linear between the equally spaced direction bins)."""
-    out = wave
-    if d_tp:
-        r = (tp + d_tp) / tp
-        out = np.stack([r[w] * np.stack([np.interp(omega * r[w], omega, wave[w, :, k], left=0, right=0)
-                                          for k in range(wave.shape[2])], axis=1) for w in range(wave.shape[0])])
-    if d_dir_deg:
-        step = 360.0 / wave.shape[2]
-        shift = d_dir_deg / step
-        k = int(np.floor(shift))
-        f = shift - k
-        out = (1 - f) * np.roll(out, k, axis=2) + f * np.roll(out, k + 1, axis=2)
+    """S(ω, β)·Δβ per window (nw, nm, nb) with Tp moved by d_tp and the directions turned by d_dir_deg."""
+    out = scaled_in_frequency(wave, omega, (tp + d_tp) / tp) if d_tp else wave
+    return turned(out, np.full(wave.shape[0], float(d_dir_deg))) if d_dir_deg else out
+
+
+def scaled_in_frequency(wave: np.ndarray, omega: np.ndarray, ratio: np.ndarray) -> np.ndarray:
+    """Per window w, the sea with its Tp × ratio[w], self-similar: S'(ω) = r S(ω r) (linear in ω, 0 outside)."""
+    nm = omega.size
+    out = np.empty_like(wave)
+    for w, r in enumerate(ratio):
+        pos = omega * r
+        j = np.clip(np.searchsorted(omega, pos), 1, nm - 1)
+        t = ((pos - omega[j - 1]) / (omega[j] - omega[j - 1]))[:, None]
+        inside = ((pos >= omega[0]) & (pos <= omega[-1]))[:, None]
+        out[w] = r * inside * ((1 - t) * wave[w, j - 1] + t * wave[w, j])
+    return out
+
+
+def turned(wave: np.ndarray, d_dir_deg: np.ndarray) -> np.ndarray:
+    """Per window w, the directions (equally spaced bins) turned by d_dir_deg[w], linear between the bins."""
+    shift = np.asarray(d_dir_deg, dtype=float) * wave.shape[2] / 360.0
+    out = np.empty_like(wave)
+    for w, sh in enumerate(shift):
+        k = int(np.floor(sh))
+        f = sh - k
+        out[w] = (1 - f) * np.roll(wave[w], k, axis=1) + f * np.roll(wave[w], k + 1, axis=1)
     return out
 
 
