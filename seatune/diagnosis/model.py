@@ -64,6 +64,7 @@ class ModelParts:
     roll_mode: Callable[[], tuple[float, float]]  # (ω_roll, I44 + A44(ω_roll)), on demand: a coupled eigen-solve
     g: float
     rho: float
+    solved: dict = field(default_factory=dict, repr=False)  # the last solve, shared by shallow copies
 
     @cached_property
     def _roll(self) -> tuple[float, float]:
@@ -78,8 +79,6 @@ class ModelParts:
     def inertia_roll(self) -> float:
         """I44 + A44(ω_roll) about the origin [kg·m²]."""
         return self._roll[1]
-
-    solved: dict = field(default_factory=dict, repr=False)  # the last solve, shared by shallow copies
 
     def solve(self) -> np.ndarray:
         """Channel transfer functions H_j(ω, β): (nf, nb, nc) or (nw, nf, nb, nc)."""
