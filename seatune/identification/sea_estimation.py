@@ -35,26 +35,27 @@ neither fixes these):
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cache
 
 import numpy as np
 from scipy import optimize, signal
+
+from seatune.physics.spectra import _peak_exponent, _pm_shape
 
 TWO_PI = 2.0 * np.pi
 FIELDS = ("hs", "tp", "dir_from_deg", "spread_deg", "gamma")
 DIRS_FROM = np.arange(72) * 5.0  # the estimate's direction grid [deg, coming-from]
 
 
-def _jonswap_shape(u: np.ndarray, gamma: np.ndarray) -> np.ndarray:
-    """The JONSWAP shape in u = ω/ω_p (σa 0.07, σb 0.09), u and γ broadcast: S(ω) ∝ ω_p⁻⁵ × this at u = ω/ω_p."""
-    r = np.where(u <= 1.0, 0.07, 0.09)
-    return u**-5.0 * np.exp(-1.25 * u**-4.0) * gamma ** np.exp(-((u - 1.0) ** 2) / (2 * r**2))
-
-
-# ∫ shape du per ln γ over the fitted range (1–7), tabulated once: m0 = ω_p⁻⁴ × this (self-similar in Tp); linear
-# interpolation in ln γ is within 1e-5 of the integral
-_U = np.geomspace(0.2, 30.0, 6000)
-_LOG_GAMMA = np.linspace(0.0, np.log(7.0), 385)
-_SHAPE_INTEGRAL = np.trapezoid(_jonswap_shape(_U[None, :], np.exp(_LOG_GAMMA)[:, None]), _U, axis=1)
+@cache
+def _jonswap_norm_table() -> tuple[np.ndarray, np.ndarray]:
+    """(ln γ, 16 ∫ g γ^r du) over the fitted γ range (1–7), u = ω/ω_p: JONSWAP = Hs²/ω_p · g γ^r / norm (the shape
+    physics/spectra.py's jonswap uses). Its adaptive quadrature per γ is too slow for a fit that moves γ
+    continuously, so the norm is tabulated once, on first use; linear in ln γ it is within 2e-6 of the integral."""
+    u = np.geomspace(0.2, 30.0, 6000)
+    log_gamma = np.linspace(0.0, np.log(7.0), 385)
+    integrand = _pm_shape(u) * np.exp(log_gamma[:, None] * _peak_exponent(u, 0.07, 0.09))
+    return log_gamma, 16.0 * np.trapezoid(integrand, u, axis=1)
 
 
 @dataclass(frozen=True)
@@ -137,9 +138,9 @@ def partition_spectrum(omega: np.ndarray, dirs_from_deg: np.ndarray, x: np.ndarr
     1988), normalised on the discrete direction grid."""
     hs, wp = np.exp(x[:, 0]), TWO_PI / np.exp(x[:, 1])
     spread, gamma = np.radians(np.exp(x[:, 3])), np.exp(x[:, 4])
-    shape = _jonswap_shape(np.maximum(omega, 1e-9)[None, :] / wp[:, None], gamma[:, None])
-    m0 = np.interp(x[:, 4], _LOG_GAMMA, _SHAPE_INTEGRAL)  # of the shape in u: the ω_p⁻⁵ and dω = ω_p du cancel
-    s1 = shape * (hs**2 / 16.0 / (m0 * wp))[:, None]  # (P, nω)
+    u = np.maximum(omega, 1e-9)[None, :] / wp[:, None]
+    norm = np.interp(x[:, 4], *_jonswap_norm_table())
+    s1 = _pm_shape(u) * gamma[:, None] ** _peak_exponent(u, 0.07, 0.09) * (hs**2 / (wp * norm))[:, None]  # (P, nω)
     s = np.maximum(2.0 / spread**2 - 1.0, 0.0)
     theta = np.radians(dirs_from_deg[None, :] - x[:, 2:3])
     d = np.clip(np.cos(0.5 * theta), 0.0, None) ** (2.0 * s[:, None])  # cos-2s, unnormalised
