@@ -62,10 +62,11 @@ def _at_beta(xi: np.ndarray, grid: np.ndarray, beta_deg: float) -> np.ndarray:
     return blend(xi[:, i], xi[:, (i + 1) % grid.size], f)
 
 
-def simulate_windows(vessel, truth: dict, effect: dict | None, sea_states: list[dict], channels: list[str],
+def simulate_windows(vessel, truth: dict, effect: dict | list[dict] | None, sea_states: list[dict], channels: list[str],
                      duration_s: float, rng, dt: float = 0.5, welch_segment_s: float = 256.0,
                      snr: float = 50.0, series: bool = False) -> list[dict]:
-    """One window per sea state {"hs", "tp", "beta_deg", "gamma"=3.3}: Welch spectra of the channels.
+    """One window per sea state {"hs", "tp", "beta_deg", "gamma"=3.3}: Welch spectra of the channels, with one
+hidden effect or a list of them (at most one of each kind).
 
     Returns per window {"hs", "tp", "beta_deg", "omega" [rad/s], "S" (nch, nf) [unit²·s/rad], "dof",
     "sigma" (nch,), "channels"}; with `series`, also "x" (T, nch), the noisy time series.
@@ -73,14 +74,15 @@ def simulate_windows(vessel, truth: dict, effect: dict | None, sea_states: list[
     db = vessel.db
     loading = vessel.loading(**truth)
     draft = loading_draft(db, loading)
-    kind = None if effect is None else effect["kind"]
-    params = {} if effect is None else effect_params(EFFECTS[kind], effect)
+    hidden = [] if effect is None else [effect] if isinstance(effect, dict) else list(effect)
+    params = {e["kind"]: effect_params(EFFECTS[e["kind"]], e) for e in hidden}
     chans = [vessel.channel(c) for c in channels]
-    if kind == "imu_lever_arm":
-        d = np.array([params["dx"], params["dy"], params["dz"]], dtype=float)
+    if "imu_lever_arm" in params:
+        d = np.array([params["imu_lever_arm"][k] for k in ("dx", "dy", "dz")], dtype=float)
         chans = [replace(ch, point=tuple(np.asarray(ch.point, dtype=float) + d))
                  if ch.point is not None and _is_imu(vessel, ch.name) else ch for ch in chans]
-    rc = roll_constants(db, loading) if kind == "quadratic_roll_damping" else None
+    rc = roll_constants(db, loading) if "quadratic_roll_damping" in params else None
+    attached = [k for k in params if k in ("moonpool", "anti_roll_tank")]
     poly = _roll_polynomial(transfer_vectors(chans, np.array([0.0, 1.0]), np.array([draft]), db.g)[0])
     grid = np.degrees(db.wave_direction)
     edges = np.linspace(db.omega[0], db.omega[-1], N_COMPONENTS + 1)
@@ -93,8 +95,9 @@ def simulate_windows(vessel, truth: dict, effect: dict | None, sea_states: list[
         omega = edges[:-1] + rng.uniform(0.0, 1.0, N_COMPONENTS) * d_omega
         a = np.sqrt(jonswap(omega, sea["hs"], sea["tp"], sea.get("gamma", 3.3)) * d_omega)
         a = a * (rng.normal(size=N_COMPONENTS) + 1j * rng.normal(size=N_COMPONENTS))
-        if kind in ("moonpool", "anti_roll_tank"):
-            xi = augmented_raos(db, loading, omega, [EFFECTS[kind].extra_dof(db, loading, omega, params)])[0]
+        if attached:
+            xi = augmented_raos(db, loading, omega, [EFFECTS[k].extra_dof(db, loading, omega, params[k])
+                                                     for k in attached])[0]
         else:
             xi = motion_raos_at(db, loading, omega)
         xi_b = _at_beta(xi, grid, sea["beta_deg"]) * a[:, None]  # (N, 6) complex amplitude of each component
@@ -106,7 +109,7 @@ def simulate_windows(vessel, truth: dict, effect: dict | None, sea_states: list[
         for s in range(0, n, _CHUNK):
             x[s:s + _CHUNK] = (np.exp(-1j * np.outer(t[s:s + _CHUNK], omega)) @ coeff).real
         if rc is not None:
-            corr = quadratic_roll_correction(x[:, -1], dt, rc, float(params["q"]))
+            corr = quadratic_roll_correction(x[:, -1], dt, rc, float(params["quadratic_roll_damping"]["q"]))
             x = x[:, :-1] + np.stack(corr, axis=1) @ poly  # channel j += Σ_q c_qj d^qδφ/dt^q
         x = x + rng.normal(0.0, 1.0, x.shape) * x.std(axis=0) / np.sqrt(snr)
         f, s_f = welch(x, fs=1.0 / dt, window="hann", nperseg=nperseg, noverlap=nperseg // 2,

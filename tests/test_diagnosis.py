@@ -15,7 +15,7 @@ from scipy.stats import multivariate_normal
 from seatune.diagnosis import residuals as res
 from seatune.diagnosis.effects import library
 from seatune.diagnosis.model import SpectralModel, WindowSet, long_crested_wave, welch_grid
-from seatune.diagnosis.select import BIN_CORRELATION, COMMON_SHARE, INDEPENDENT_FLOOR, window_nll
+from seatune.diagnosis.select import BIN_CORRELATION, COMMON_SHARE, INDEPENDENT_FLOOR, Diagnoser, window_nll
 from seatune.physics.channels import Channel, transfer_vectors
 from seatune.physics.spectra import jonswap
 from seatune.simulate import effects as sim
@@ -177,6 +177,47 @@ def test_hindcast_errors_are_not_taken_for_an_effect(sample_model):
     assert named == [None, None]
 
 
+def test_compound_trial_names_both_effects_in_turn(sample_model):
+    """A moonpool and a displaced IMU hidden together (time-domain trial): the greedy selection names the stronger,
+    adds it, refits, and names the other; the held-out gap of the joint model shrinks by ≥ 50 % and both effects'
+    parameters come out near the simulator's."""
+    d, _ = trials.trial(sample_model, ("moonpool", "imu_lever_arm"), 0)
+    assert set(d.named.split("+")) == {"moonpool", "imu_lever_arm"}, d.named
+    steps = [r for r in d.rows if r["selected"]]
+    assert [r["step"] for r in steps] == [1, 2] and steps[1]["given"] == (steps[0]["added"],)
+    assert steps[1]["joint_gain_holdout"] == pytest.approx(steps[0]["gain_holdout"] + steps[1]["gain_holdout"])
+    gaps = d.gaps[d.named]
+    assert gaps["gap_holdout_after"] <= 0.5 * gaps["gap_holdout_before"], gaps
+    fitted = dict((e.name, p) for e, p in d.named_effects)
+    moonpool, lever = trials.EFFECTS["moonpool"], trials.EFFECTS["imu_lever_arm"]
+    assert fitted["moonpool"]["omega_p"] == pytest.approx(moonpool["omega_p"], rel=0.03)
+    assert all(abs(fitted["imu_lever_arm"][k] - lever[k]) < 1.0 for k in ("dx", "dy", "dz")), fitted
+
+
+def test_a_parameter_at_its_search_bound_widens_to_the_hull_limit(sample_model):
+    """A moonpool wider than the search's 8 % of the waterplane: the fit stops at the search bound, widens the area
+    once to the hull's 20 % and finds the planted area (expected spectra of the model with it, no noise)."""
+    from seatune.diagnosis.effects import Moonpool, waterplane_area
+
+    a_wp = waterplane_area(sample_model)
+    effect = Moonpool(*trials.MOONPOOL_AT, waterplane=a_wp)
+    area = next(q for q in effect.parameters if q.name == "area")
+    assert area.upper == pytest.approx(0.08 * a_wp) and area.widenable
+    rng = np.random.default_rng(3)
+    states = trials.sea_states(rng, 6)
+    windows = trials.simulate_windows(sample_model, trials.TRUTH, None, states, trials.CHANNELS, 900.0, rng)
+    data = trials.window_set(sample_model, windows, states, ["train", "train", "holdout"] * 2, np.ones(6))
+    truth_phi = np.array([trials.TRUTH[p.name] for p in trials.PARAMETERS])
+    planted = {"omega_p": 1.1, "zeta_p": 0.08, "area": 0.12 * a_wp}
+    diag = Diagnoser(sample_model, trials.PARAMETERS, data, truth_phi)
+    data.measured = diag.model.spectra(truth_phi, effect, planted)
+    diag.fit(None)
+    fit = diag.fit(effect)
+    assert fit.widened == ["area"]
+    assert fit.params["area"] == pytest.approx(planted["area"], rel=0.1) and fit.params["area"] > area.upper
+    assert fit.effect_used.parameters[2].upper == pytest.approx(0.2 * a_wp)
+
+
 @pytest.mark.slow
 def test_hidden_effect_trials_over_many_seeds(sample_model):
     """Issue 8's acceptance over 10 seeds per effect (random headings and sea states) and 10 clean trials."""
@@ -222,8 +263,9 @@ def test_diagnose_writes_the_design_tables(diagnosed):
     table = pq.read_table(out / "diagnosis.parquet")
     assert table.column_names == list(DIAGNOSIS_UNITS)
     d = table.to_pandas()
-    assert list(d["effect"]) == ["none", *(e for e in EFFECT)]
-    assert d["selected"].sum() <= 1 and d.loc[d["effect"] == "none", "n_params"].item() == 0
+    first = d[d["step"] == 1]
+    assert list(first["effect"]) == ["none", *(e for e in EFFECT)] and (d["step"] <= d["selected"].sum() + 1).all()
+    assert d.loc[d["effect"] == "none", "n_params"].item() == 0
     assert np.isfinite(d[["gain_train", "gain_holdout", "gap_before_holdout", "gap_after_holdout"]]).all().all()
     resid = pq.read_table(out / "diagnosis_residuals.parquet").to_pandas()
     assert list(resid.columns) == list(RESIDUAL_UNITS) and resid["used"].any()

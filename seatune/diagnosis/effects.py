@@ -13,6 +13,8 @@ solve, as the plain model does.
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,6 +32,13 @@ class EffectParameter:
     lower: float
     upper: float
     scan: tuple[float, ...] = ()  # values scanned for the start of a multimodal parameter (a resonance)
+    limit_lower: float | None = None  # the physical limit a search stopped at its bound widens to (None: lower)
+    limit_upper: float | None = None
+
+    @property
+    def widenable(self) -> bool:
+        return (self.limit_lower is not None and self.limit_lower < self.lower) or (
+            self.limit_upper is not None and self.limit_upper > self.upper)
 
 
 class Effect:
@@ -38,6 +47,7 @@ class Effect:
     name = ""
     signature = ""
     parameters: tuple[EffectParameter, ...] = ()
+    trades_with_loading = False  # its start is scanned with the loading refitted (Diagnoser._scan)
 
     def applicable(self, vessel, channels) -> bool:
         return True
@@ -52,6 +62,64 @@ class Effect:
     def spectra(self, parts, params: dict, model) -> np.ndarray:
         self.apply(parts, params, model)
         return parts.spectra()
+
+    def widened(self, names) -> Effect:
+        """A copy whose named parameters search up to their physical limits (a fit stopped at a search bound)."""
+        out = copy.copy(self)
+        out.parameters = tuple(dataclasses.replace(q, lower=min(q.lower, q.limit_lower if q.limit_lower is not None
+                                                                else q.lower),
+                                                   upper=max(q.upper, q.limit_upper if q.limit_upper is not None
+                                                             else q.upper))
+                               if q.name in names else q for q in self.parameters)
+        return out
+
+
+class Compound(Effect):
+    """Effects named one after another in one model (greedy selection): the given ones start from their fitted
+    values and are refitted with the added one. Parameters are named `effect.parameter`; effects that change the
+    sea or the transfer functions are applied in turn, one with its own `spectra` (stochastic linearisation) last."""
+
+    def __init__(self, given: list[tuple[Effect, dict]], added: Effect):
+        self.members = [e for e, _ in given] + [added]
+        self.added = added
+        self.trades_with_loading = added.trades_with_loading
+        self.name = "+".join(e.name for e in self.members)
+        self.signature = "; ".join(e.signature for e in self.members)
+        starts = [p for _, p in given] + [{}]
+        self.parameters = tuple(
+            dataclasses.replace(q, name=f"{e.name}.{q.name}", initial=float(start.get(q.name, q.initial)),
+                                scan=() if start else q.scan)
+            for e, start in zip(self.members, starts, strict=True) for q in e.parameters)
+
+    def applicable(self, vessel, channels):
+        return all(e.applicable(vessel, channels) for e in self.members)
+
+    def scan_values(self, parts0, bands):
+        own = self.added.scan_values(parts0, bands)
+        for q in self.added.parameters:  # resonances start where the residual says (Diagnoser._scan)
+            if q.name.startswith("omega") and bands:
+                own[q.name] = tuple(own.get(q.name, ())) + tuple(b.omega_peak for b in bands)
+        return {f"{self.added.name}.{k}": v for k, v in own.items()}
+
+    def split(self, params: dict) -> list[tuple[Effect, dict]]:
+        return [(e, {q.name: params[f"{e.name}.{q.name}"] for q in e.parameters}) for e in self.members]
+
+    def widened(self, names) -> Effect:
+        out = super().widened(names)
+        for k, e in enumerate(out.members):
+            own = {n.split(".", 1)[1] for n in names if n.split(".", 1)[0] == e.name}
+            if own:
+                out.members = [*out.members[:k], e.widened(own), *out.members[k + 1:]]
+        out.added = out.members[-1]
+        return out
+
+    def spectra(self, parts, params, model):
+        pieces = self.split(params)
+        last = [(e, p) for e, p in pieces if type(e).spectra is not Effect.spectra]
+        for e, p in pieces:
+            if (e, p) not in last:
+                e.apply(parts, p, model)
+        return last[0][0].spectra(parts, last[0][1], model) if last else parts.spectra()
 
 
 def attach_dof(parts, row: np.ndarray, c_tilde: np.ndarray, z: np.ndarray, f_q: np.ndarray | None = None) -> None:
@@ -68,6 +136,7 @@ class QuadraticRollDamping(Effect):
                  "(roll, roll rate, lateral accelerations; residual correlates with Hs)")
     parameters = (EffectParameter("q", "1/rad", 0.0, 0.0, 20.0, scan=(0.0, 0.3, 1.0, 3.0)),)
     iterations = 8
+    trades_with_loading = True  # the tuned linear β44 holds its mean
 
     def spectra(self, parts, params, model):
         # roll moment −q (I44 + A44(ω_n)) |φ̇| φ̇, linearised per window: b_eq = √(8/π) σ_φ̇ b2 (seed_002 eq. 2.19);
@@ -97,13 +166,16 @@ class Moonpool(Effect):
     signature = ("piston mode of a moonpool's water column: a narrow extra peak or notch in heave (and pitch / roll "
                  "by the moonpool's position) near its resonance, independent of roll")
 
-    def __init__(self, x: float = 0.0, y: float = 0.0):
+    def __init__(self, x: float = 0.0, y: float = 0.0, waterplane: float | None = None):
+        """`waterplane` [m²]: the hull's; the area is searched up to 8 % of it and widened up to 20 % (a
+        moonpool's opening is a few per cent of the waterplane). Without it, 1–400 m²."""
         self.x, self.y = float(x), float(y)
+        area = (EffectParameter("area", "m^2", 0.02 * waterplane, 1.0, 0.08 * waterplane,
+                                scan=(0.001 * waterplane, 0.02 * waterplane), limit_upper=0.2 * waterplane)
+                if waterplane else EffectParameter("area", "m^2", 40.0, 1.0, 400.0, scan=(2.0, 40.0)))
         self.parameters = (
             EffectParameter("omega_p", "rad/s", 1.0, 0.4, 2.0, scan=tuple(np.round(np.arange(0.5, 1.95, 0.1), 2))),
-            EffectParameter("zeta_p", "", 0.1, 0.01, 0.5),
-            EffectParameter("area", "m^2", 40.0, 1.0, 400.0, scan=(2.0, 40.0)),
-        )
+            EffectParameter("zeta_p", "", 0.1, 0.01, 0.5), area)
 
     def apply(self, parts, params, model):
         # column: mass on a relative spring c_p = ρ g S, excited by the wave pressure at the keel (Molin 2001 piston)
@@ -161,6 +233,12 @@ def hull_extent(vessel) -> tuple[float, float] | None:
     if not (np.isfinite(z_b) and area > 0 and i_t > 0 and i_l > 0):
         return None
     return float(np.sqrt(12 * i_l / area)), float(np.sqrt(12 * i_t / area))
+
+
+def waterplane_area(vessel) -> float:
+    """A_wp = C33 / ρg at the database's middle draft [m²]."""
+    db = vessel.db
+    return float(db.buoyancy_stiffness[len(db.drafts) // 2][2, 2] / (db.rho * db.g))
 
 
 class ImuLeverArm(Effect):
@@ -279,9 +357,11 @@ def _direction_weights(beta_deg: np.ndarray, grid_deg: np.ndarray) -> np.ndarray
 
 
 def library(names=None, moonpool_position=(0.0, 0.0), imu_sensor: str = "imu", vessel=None) -> list[Effect]:
-    """The candidate effects by name (all by default); with `vessel`, ranges from its hull (`hull_extent`)."""
+    """The candidate effects by name (all by default); with `vessel`, ranges from its hull (`hull_extent`, the
+    waterplane area)."""
     extent = hull_extent(vessel) if vessel is not None else None
-    every = {e.name: e for e in (QuadraticRollDamping(), Moonpool(*moonpool_position), AntiRollTank(),
+    waterplane = waterplane_area(vessel) if vessel is not None else None
+    every = {e.name: e for e in (QuadraticRollDamping(), Moonpool(*moonpool_position, waterplane), AntiRollTank(),
                                  ImuLeverArm(imu_sensor, extent), ImuMisalignment(imu_sensor), HsBias(),
                                  MissingSwell(), WaveSpreading())}
     if names is None:

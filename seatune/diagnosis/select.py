@@ -28,11 +28,13 @@ from scipy.optimize import minimize
 from scipy.special import digamma, polygamma
 
 from seatune.diagnosis import residuals as res
+from seatune.diagnosis.effects import Compound
 from seatune.diagnosis.model import SpectralModel, WindowSet, spectra_in_sea
 from seatune.physics.response import trapezoid_weights
 
 BIN_CORRELATION = 1.5  # Hann window's equivalent noise bandwidth [bins]
 AFFECTED_CHANGE = 0.1  # a bin is in an effect's band where it changes the expected spectrum by ≥ 10 % (log)
+MAX_NAMED = 3  # effects the greedy selection may name in turn
 HOLDOUT_MIN = 4.0  # held-out log-likelihood gain [nats] to name an effect (Jeffreys: "strong", odds > 50)
 COMMON_SHARE = 0.8  # share of the χ² sampling variance common to all channels at a frequency
 INDEPENDENT_FLOOR = 0.05**2  # per-channel, per-bin variance no model resolves (sensor noise, small effects)
@@ -137,6 +139,8 @@ class Fit:
     n_params: int
     converged: bool
     std: dict = field(default_factory=dict)  # Laplace standard errors of the effect parameters
+    effect_used: object = None  # the Effect as fitted (its ranges widened where `widened` says)
+    widened: list = field(default_factory=list)  # parameters whose search was widened to the physical limit
 
 
 class Diagnoser:
@@ -187,27 +191,47 @@ class Diagnoser:
         return self.nll(phi, effect, params) + prior
 
     # --- fitting --------------------------------------------------------------------------------------------
-    def fit(self, effect=None, bands=()) -> Fit:
+    def fit(self, effect=None, bands=(), start: Fit | None = None) -> Fit:
+        """The loading (from `start`'s, default the refit without effect) and the effect's parameters fitted on the
+        training windows. A parameter stopped at a search bound short of its physical limit widens the search to
+        the limit once (issue 17); `Fit.effect_used` is the effect as finally searched."""
+        start = self._base if start is None else start
+        fit = self._fit(effect, bands, start)
+        if effect is not None:
+            stuck = [q.name for q in effect.parameters if q.widenable and q.name in _at_bound(effect, fit.params)]
+            if stuck:
+                wide = effect.widened(stuck)
+                fit = self._fit(wide, (), start, x_from=fit)
+                fit.widened = stuck
+        if effect is None:
+            self._base = fit  # candidates start from the refitted loading without effect
+        return fit
+
+    def _fit(self, effect, bands, start: Fit | None, x_from: Fit | None = None) -> Fit:
         p = len(self.parameters)
-        x0 = np.zeros(p) if effect is None or self._base is None else (self._base.phi - self.phi_start) / self._std
+        x0 = np.zeros(p) if effect is None or start is None else (start.phi - self.phi_start) / self._std
         bounds = [((lo - s0) / sd, (hi - s0) / sd) for lo, hi, s0, sd in
                   zip(self._lo, self._hi, self.phi_start, self._std, strict=True)]
         if effect is not None:
-            x0 = np.r_[x0, [(q.initial - q.lower) / (q.upper - q.lower) for q in effect.parameters]]
+            values = x_from.params if x_from is not None else {q.name: q.initial for q in effect.parameters}
+            if x_from is not None:
+                x0 = (x_from.phi - self.phi_start) / self._std
+            x0 = np.r_[x0, [(values[q.name] - q.lower) / (q.upper - q.lower) for q in effect.parameters]]
             bounds += [(0.0, 1.0)] * len(effect.parameters)
-            x0 = self._scan(x0, effect, bands)
+            if x_from is None:
+                x0 = self._scan(x0, effect, bands, bounds[:p])
         result = minimize(self._objective, x0, args=(effect,), method="L-BFGS-B", bounds=bounds,
                           options={"maxiter": 200, "eps": 1e-4})
         phi, params = self._unpack(result.x, effect)
         nll_h = self.nll(phi, effect, params, self.holdout) if self.holdout.any() else float("nan")
         std = self._effect_std(result, effect) if effect is not None else {}
-        fit = Fit(effect.name if effect else "none", params, phi, self.nll(phi, effect, params), nll_h,
-                  len(effect.parameters) if effect else 0, bool(result.success), std)
-        if effect is None:
-            self._base = fit  # candidates start from the refitted loading without effect
-        return fit
+        return Fit(effect.name if effect else "none", params, phi, self.nll(phi, effect, params), nll_h,
+                   len(effect.parameters) if effect else 0, bool(result.success), std, effect_used=effect)
 
-    def _scan(self, x0, effect, bands):
+    def _scan(self, x0, effect, bands, loading_bounds):
+        """The best start over the effect's scan grid; for an effect that trades against the loading (a damping
+        that the tuned linear damping absorbed), the loading is refitted briefly at each grid point, else every
+        start but q = 0 looks worse and the fit stays there."""
         p = len(self.parameters)
         parts0 = self.model.parts(self.phi_start)
         scans = effect.scan_values(parts0, bands)
@@ -224,7 +248,12 @@ class Diagnoser:
         for combo in itertools.product(*grids):
             x = x0.copy()
             x[p:] = np.clip(combo, 0.0, 1.0)
-            value = self._objective(x, effect)
+            if effect.trades_with_loading:
+                inner = minimize(lambda xl, x=x: self._objective(np.r_[xl, x[p:]], effect), x[:p], method="L-BFGS-B",
+                                 bounds=loading_bounds, options={"maxiter": 10, "eps": 1e-4})
+                x[:p], value = inner.x, float(inner.fun)
+            else:
+                value = self._objective(x, effect)
             if value < best:
                 best, best_x = value, x
         return best_x
@@ -277,8 +306,10 @@ class Diagnoser:
         w = natural_frequencies(self.vessel.db, self.model.loading(phi), dofs=(2, 3, 4))[0]
         return {res.DOF_NAMES[d]: float(v) for d, v in zip((2, 3, 4), w, strict=True)}
 
-    def run(self, effects, phi_before: np.ndarray | str | None = None) -> Diagnosis:
-        """`phi_before`: the tuned loading the gap is measured from (default the start); "refit": the loading
+    def run(self, effects, phi_before: np.ndarray | str | None = None, max_named: int = MAX_NAMED) -> Diagnosis:
+        """Greedy forward selection (issue 17): fit every candidate, name the strongest eligible one, add it to the
+        model and fit the others with it (its parameters refitted jointly), until none passes or `max_named` are
+        named. `phi_before`: the tuned loading the gap is measured from (default the start); "refit": the loading
         refitted here without any effect (what a tuning on these windows gives)."""
         wave_given = self.data.wave
         base = self._base_fit()
@@ -288,45 +319,60 @@ class Diagnoser:
         r0, sd0, pred0 = self.residuals(phi_before)
         train_data = self.data.subset(self.train)
         found = res.bands(train_data, r0[self.train], sd0[self.train], self.modes(phi_before))
-        fits = [base] + [self.fit(e, found) for e in effects if e.applicable(self.vessel, self.data.channels)]
-        by_name = {e.name: e for e in effects}
-        rows = []
-        for f in fits:
-            gain_t = base.nll_train - f.nll_train
-            gain_h = base.nll_holdout - f.nll_holdout
-            penalty = 0.5 * f.n_params * np.log(max(self.n_train, 2.0))
-            edge = _at_bound(by_name.get(f.effect), f.params)
-            rows.append({"fit": f, "gain_train": gain_t, "gain_holdout": gain_h, "bic_penalty": penalty,
-                         "at_bound": ", ".join(edge)})
-        located = _band_selection(self.data, found)
-        gaps, cache = {}, {}
-        for f in fits:
-            cache[f.effect] = self.residuals(f.phi, by_name.get(f.effect), f.params)
-            rf, sdf, predf = cache[f.effect]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                moved = np.abs(np.log(predf / pred0)) >= AFFECTED_CHANGE
-            select = self.data.mask & moved if f.n_params and (self.data.mask & moved).any() else located
-            before, after_ = self._gaps(r0, sd0, pred0, select), self._gaps(rf, sdf, predf, select)
-            gaps[f.effect] = {**{f"{k}_before": v for k, v in before.items()},
-                              **{f"{k}_after": v for k, v in after_.items()}}
-        for row in rows:
-            f = row["fit"]
-            row["score"] = _score(row["gain_train"], row["gain_holdout"], row["bic_penalty"])
-            strong = row["score"] > HOLDOUT_MIN and (row["gain_train"] > row["bic_penalty"]
-                                                     or not np.isfinite(row["gain_holdout"]))
-            row["eligible"] = bool(f.n_params > 0 and strong and not row["at_bound"])
-            row["false_alarm_p"] = row["null_gain_q95"] = np.nan
-        if self.null is not None and self.null.replicates > 0:
-            self._calibrate(rows, by_name, base, wave_given)
-        best = max((r for r in rows if r["eligible"]), key=lambda r: r["score"], default=None)
-        winner = best["fit"] if best else None
-        after = winner or base
-        r1, sd1, _ = cache[after.effect]
-        left = {f.effect: res.bands(train_data, cache[f.effect][0][self.train], cache[f.effect][1][self.train],
-                                    self.modes(f.phi)) for f in fits}  # the misfit each candidate leaves
+        ctx = _Context(base, (r0, sd0, pred0), _band_selection(self.data, found), train_data)
+        candidates = [e for e in effects if e.applicable(self.vessel, self.data.channels)]
+        rows = [self._row(base, base, 1, ctx)]
+        named: list[Fit] = []
+        step_base, bands_now = base, found
+        while len(named) < max_named:
+            given = _members(step_base)
+            left = [e for e in candidates if e.name not in {g.name for g, _ in given}]
+            if not left:
+                break
+            fits = [self.fit(Compound(given, e) if given else e, bands_now, start=step_base) for e in left]
+            step_rows = [self._row(f, step_base, len(named) + 1, ctx) for f in fits]
+            if self.null is not None and self.null.replicates > 0:
+                self._calibrate(step_rows, step_base, wave_given)
+            rows += step_rows
+            best = max((r for r in step_rows if r["eligible"]), key=lambda r: r["score"], default=None)
+            if best is None:
+                break
+            best["selected"] = True
+            named.append(best["fit"])
+            step_base = best["fit"]
+            bands_now = ctx.left[step_base.effect]
+        winner = named[-1] if named else None
+        r1, sd1, _ = ctx.cache[(winner or base).effect]
         return Diagnosis(rows=rows, winner=winner, base=base, phi_before=phi_before, bands_before=found,
-                         bands_after=left, residual_before=(r0, sd0), residual_after=(r1, sd1), gaps=gaps,
-                         parameter_names=tuple(p.name for p in self.parameters))
+                         bands_after=ctx.left, residual_before=(r0, sd0), residual_after=(r1, sd1), gaps=ctx.gaps,
+                         parameter_names=tuple(p.name for p in self.parameters), named_fits=named)
+
+    def _row(self, f: Fit, step_base: Fit, step: int, ctx: _Context) -> dict:
+        """One candidate at one step: its gains over the step's model (the effects named so far), its joint gains
+        over the model without effect, the eligibility rule, and (in `ctx`) its residuals, gaps and bands left."""
+        added = f.n_params - step_base.n_params
+        gain_t, gain_h = step_base.nll_train - f.nll_train, step_base.nll_holdout - f.nll_holdout
+        penalty = 0.5 * added * np.log(max(self.n_train, 2.0))
+        edge = ", ".join(_at_bound(f.effect_used, f.params))
+        score = _score(gain_t, gain_h, penalty)
+        strong = score > HOLDOUT_MIN and (gain_t > penalty or not np.isfinite(gain_h))
+        r0, sd0, pred0 = ctx.before
+        if f.effect not in ctx.cache:
+            ctx.cache[f.effect] = rf, sdf, predf = self.residuals(f.phi, f.effect_used, f.params)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                moved = self.data.mask & (np.abs(np.log(predf / pred0)) >= AFFECTED_CHANGE)
+            select = moved if f.n_params and moved.any() else ctx.located
+            before, after_ = self._gaps(r0, sd0, pred0, select), self._gaps(rf, sdf, predf, select)
+            ctx.gaps[f.effect] = {**{f"{k}_before": v for k, v in before.items()},
+                                  **{f"{k}_after": v for k, v in after_.items()}}
+            ctx.left[f.effect] = res.bands(ctx.train_data, rf[self.train], sdf[self.train], self.modes(f.phi))
+        return {"fit": f, "step": step, "given": tuple(g.name for g, _ in _members(step_base)),
+                "added": _members(f)[-1][0].name if f.n_params else "none",
+                "gain_train": gain_t, "gain_holdout": gain_h, "bic_penalty": penalty,
+                "joint_gain_train": ctx.base.nll_train - f.nll_train,
+                "joint_gain_holdout": ctx.base.nll_holdout - f.nll_holdout, "at_bound": edge, "score": score,
+                "eligible": bool(added > 0 and strong and not edge), "selected": False,
+                "false_alarm_p": np.nan, "null_gain_q95": np.nan}
 
     def _base_fit(self) -> Fit:
         """The loading refitted without effect; first the windows' sea states as the data see them when the
@@ -338,12 +384,13 @@ class Diagnoser:
             base = self.fit(None)
         return base
 
-    def _calibrate(self, rows, by_name, base: Fit, wave_given: np.ndarray) -> None:
-        """Parametric bootstrap of the decision (issue 17): data simulated from the model without effect in a sea
-        drawn around the one diagnose found (NullSea), diagnosed as the real data, give each candidate's null
-        distribution of its score; p = (1 + #{null ≥ observed}) / (n + 1) over the n replicas drawn (Davison &
-        Hinkley 1997 eq. 4.11), stopping once the test cannot pass. Candidates are tested strongest first and the
-        first with p ≤ false_alarm is named; weaker ones are not tested (a stronger one won)."""
+    def _calibrate(self, rows, base: Fit, wave_given: np.ndarray) -> None:
+        """Parametric bootstrap of the decision (issue 17): data simulated from the step's model (the effects named
+        so far) in a sea drawn around the one diagnose found (NullSea), diagnosed as the real data, give each
+        candidate's null distribution of its score; p = (1 + #{null ≥ observed}) / (n + 1) over the n replicas
+        drawn (Davison & Hinkley 1997 eq. 4.11), stopping once the test cannot pass. Candidates are tested
+        strongest first and the first with p ≤ false_alarm passes; weaker ones are not tested (a stronger one
+        won)."""
         null = self.null
         order = sorted((r for r in rows if r["eligible"]), key=lambda r: -r["score"])
         rng = np.random.default_rng(null.seed)
@@ -355,11 +402,11 @@ class Diagnoser:
             return replicas[b]
 
         for row in order:
-            effect = by_name[row["fit"].effect]
+            effect = row["fit"].effect_used
             scores = []
             for b in range(null.replicates):
                 rep, rep_base, bands = replica(b)
-                f = rep.fit(effect, bands)
+                f = rep.fit(effect, bands, start=rep_base)
                 scores.append(_score(rep_base.nll_train - f.nll_train, rep_base.nll_holdout - f.nll_holdout,
                                      row["bic_penalty"]))
                 exceed = sum(v >= row["score"] for v in scores)
@@ -373,11 +420,12 @@ class Diagnoser:
                 break
 
     def _null_replica(self, base: Fit, wave_given: np.ndarray, rng: np.random.Generator):
-        """(replica Diagnoser, its base fit, its misfit bands) of one dataset drawn under the null."""
+        """(replica Diagnoser, its base fit, its misfit bands) of one dataset drawn under the null: `base`'s
+        model (loading and effects named so far)."""
         truth = copy.copy(self.model)
         truth.data = dataclasses.replace(self.data, wave=perturbed_wave(self.data.wave, self.data.omega_fine, rng,
                                                                         self.null))
-        expected = truth.spectra(base.phi) * np.exp(model_error_draw(
+        expected = truth.spectra(base.phi, base.effect_used, base.params) * np.exp(model_error_draw(
             self.data.omega, len(self.data.channels), rng, self.null.model_error, self.null.model_error_scale))[None]
         measured = sampled_spectra(expected, self.data.dof, rng)
         rep = copy.copy(self)
@@ -388,8 +436,8 @@ class Diagnoser:
         rep.phi_start = base.phi  # the null's loading: where the replica's fits start
         if rep.tp_std_s > 0 or rep.dir_std_deg > 0:  # its sea search at the null's loading, then one fit
             rep.data.wave = rep.sea_state_search(base.phi)
-        rep_base = rep.fit(None)
-        r0, sd0, _ = rep.residuals(rep.phi_start)
+        rep_base = rep.fit(None) if base.effect_used is None else rep._fit(base.effect_used, (), None, x_from=base)
+        r0, sd0, _ = rep.residuals(rep.phi_start, base.effect_used, base.params)
         bands = res.bands(rep.data.subset(rep.train), r0[rep.train], sd0[rep.train], rep.modes(rep.phi_start))
         return rep, rep_base, bands
 
@@ -467,6 +515,28 @@ def _band_selection(data: WindowSet, found) -> np.ndarray:
     return data.mask & sel[None]
 
 
+def _members(fit: Fit) -> list[tuple]:
+    """[(Effect, params)] of a fit: none, one, or a Compound's members in the order named."""
+    effect = fit.effect_used
+    if effect is None:
+        return []
+    return effect.split(fit.params) if isinstance(effect, Compound) else [(effect, fit.params)]
+
+
+@dataclass
+class _Context:
+    """What the rows of one selection share: the model without effect, the tuned model's residuals (r, sd, pred),
+    the located misfit, the training windows, and per fit its residuals, gaps and bands left."""
+
+    base: Fit
+    before: tuple
+    located: np.ndarray
+    train_data: WindowSet
+    cache: dict = field(default_factory=dict)
+    gaps: dict = field(default_factory=dict)
+    left: dict = field(default_factory=dict)
+
+
 @dataclass
 class Diagnosis:
     rows: list[dict]
@@ -477,9 +547,16 @@ class Diagnosis:
     bands_after: dict  # per candidate: the bands left on the training windows with it
     residual_before: tuple
     residual_after: tuple
-    gaps: dict  # per candidate: gap_/sigma_error_ {train, holdout} _ {before, after}, in the bins it affects
+    gaps: dict  # per fit: gap_/sigma_error_ {train, holdout} _ {before, after}, in the bins it affects
     parameter_names: tuple = ()
+    named_fits: list = field(default_factory=list)  # the fit of each step that named an effect, in order
 
     @property
     def named(self) -> str | None:
+        """The effects named, joined by '+' in the order named (None: none)."""
         return self.winner.effect if self.winner else None
+
+    @property
+    def named_effects(self) -> list[tuple]:
+        """[(Effect, params)] of the final model, parameters refitted jointly."""
+        return _members(self.winner) if self.winner else []

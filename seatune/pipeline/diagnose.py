@@ -24,13 +24,17 @@ from seatune.errors import UserError
 from seatune.physics.spectra import direction_step
 
 DIAGNOSIS_UNITS = {
-    "effect": "", "signature": "", "n_params": "", "fitted": "text; JSON, parameter units in fitted_units",
+    "step": "", "given": "", "effect": "", "signature": "", "n_params": "",
+    "fitted": "text; JSON, parameter units in fitted_units",
     "fitted_std": "text; JSON", "fitted_units": "text; JSON", "loading": "text; JSON, loading parameter units (SI)",
     "nll_train": "dimensionless; nat", "nll_holdout": "dimensionless; nat", "gain_train": "dimensionless; nat",
     "gain_holdout": "dimensionless; nat", "bic_penalty": "dimensionless; nat",
+    "joint_gain_train": "dimensionless; nat, over the model without effect",
+    "joint_gain_holdout": "dimensionless; nat, over the model without effect",
     "false_alarm_p": "dimensionless; probability under the null (no effect, sea within its errors); NaN: not tested",
     "null_gain_q95": "dimensionless; nat, the null's 95 % quantile of the score (held-out gain)",
-    "at_bound": "", "eligible": "", "selected": "", "gap_before_train": "dimensionless",
+    "at_bound": "", "widened": "", "eligible": "", "selected": "", "out_of_sample": "",
+    "gap_before_train": "dimensionless",
     "gap_after_train": "dimensionless", "gap_before_holdout": "dimensionless",
     "gap_after_holdout": "dimensionless", "sigma_error_before_train": "dimensionless",
     "sigma_error_after_train": "dimensionless", "sigma_error_before_holdout": "dimensionless",
@@ -125,6 +129,9 @@ def null_sea(calibration):
 
 
 def diagnosis_table(diag, effects) -> pd.DataFrame:
+    """One row per candidate and step of the greedy selection (DESIGN §5): the step's gains are over the effects
+    named before it (`given`), the joint ones over the model without effect; gaps are the tuned model's against
+    the model with the row's effects."""
     from seatune.diagnosis.residuals import describe
 
     by_name = {e.name: e for e in effects}
@@ -132,24 +139,39 @@ def diagnosis_table(diag, effects) -> pd.DataFrame:
     out = []
     for r in diag.rows:
         f = r["fit"]
-        eff = by_name.get(f.effect)
+        eff = by_name.get(r["added"])
+        own = f"{r['added']}."
+        fitted = {k.removeprefix(own): v for k, v in f.params.items()}
+        std = {k.removeprefix(own): v for k, v in f.std.items()}
+        units = {q.name.removeprefix(own): q.unit for q in f.effect_used.parameters} if f.effect_used else {}
         g = diag.gaps[f.effect]
         out.append({
-            "effect": f.effect, "signature": eff.signature if eff else "the tuned model refitted, no effect",
-            "n_params": f.n_params, "fitted": json.dumps({k: round(v, 6) for k, v in f.params.items()}),
-            "fitted_std": json.dumps({k: round(v, 6) for k, v in f.std.items()}),
-            "fitted_units": json.dumps({q.name: q.unit for q in eff.parameters} if eff else {}),
+            "step": r["step"], "given": "+".join(r["given"]), "effect": r["added"],
+            "signature": eff.signature if eff else "the tuned model refitted, no effect",
+            "n_params": f.n_params, "fitted": json.dumps({k: round(v, 6) for k, v in fitted.items()}),
+            "fitted_std": json.dumps({k: round(v, 6) for k, v in std.items()}), "fitted_units": json.dumps(units),
             "loading": json.dumps({p: round(float(v), 6) for p, v in zip(diag.parameter_names, f.phi, strict=True)}),
             "nll_train": f.nll_train, "nll_holdout": f.nll_holdout, "gain_train": r["gain_train"],
             "gain_holdout": r["gain_holdout"], "bic_penalty": r["bic_penalty"],
+            "joint_gain_train": r["joint_gain_train"], "joint_gain_holdout": r["joint_gain_holdout"],
             "false_alarm_p": r["false_alarm_p"], "null_gain_q95": r["null_gain_q95"], "at_bound": r["at_bound"],
-            "eligible": bool(r["eligible"]),
-            "selected": diag.winner is not None and f is diag.winner,
+            "widened": ", ".join(k.removeprefix(own) for k in f.widened), "eligible": bool(r["eligible"]),
+            "selected": bool(r["selected"]), "out_of_sample": out_of_sample(g) if f.n_params else "",
             **{f"{k}_{when}_{role}": g[f"{k}_{role}_{when}"] for k in ("gap", "sigma_error")
                for when in ("before", "after") for role in ("train", "holdout")},
             "bands_before": before,
             "bands_after": "; ".join(describe(b) for b in diag.bands_after[f.effect]) or "none left"})
     return pd.DataFrame(out, columns=list(DIAGNOSIS_UNITS))
+
+
+def out_of_sample(gaps: dict) -> str:
+    """'helps' when the held-out gap and σ error both fall with the row's effects, else 'fits training only'
+    (issue 17); reported, not a condition for naming (on the trial bank it would drop correct names)."""
+    if not np.isfinite(gaps["gap_holdout_before"]):
+        return "no held-out window"
+    helps = (gaps["gap_holdout_after"] < gaps["gap_holdout_before"]
+             and gaps["sigma_error_holdout_after"] <= gaps["sigma_error_holdout_before"])
+    return "helps" if helps else "fits training only"
 
 
 def residual_table(data, diag) -> pd.DataFrame:
@@ -163,24 +185,27 @@ def residual_table(data, diag) -> pd.DataFrame:
         "z_after": (r1 / sd1).ravel(), "used": data.mask.ravel()})
 
 
-def augmented_vessel_yaml(vessel, diag, effect, path: Path) -> None:
-    """The run's vessel YAML with the named effect under `effects:` and the loading refitted with it as the
+def augmented_vessel_yaml(vessel, diag, path: Path) -> None:
+    """The run's vessel YAML with the named effects under `effects:` and the loading refitted with them as the
     loading condition; the priors stay the vessel's own, so `seatune tune` on it re-tunes from scratch with the
-    effect in the model."""
+    effects in the model."""
     from seatune.atomic import atomic_path
     from seatune.pipeline.tune import vessel_yaml_data
 
     data = vessel_yaml_data(vessel)
-    w = diag.winner
-    for name, value in zip(diag.parameter_names, w.phi, strict=True):
+    for name, value in zip(diag.parameter_names, diag.winner.phi, strict=True):
         data["loading"][name] = float(value)
         if name == "mass":
             data["loading"].pop("displacement", None)
-    entry = {"kind": w.effect, **{k: float(v) for k, v in w.params.items()}}
-    if w.effect == "moonpool":
-        entry.update(x=float(effect.x), y=float(effect.y))
-    data["effects"] = [*(data.get("effects") or []), entry]
-    data["description"] = (data.get("description", "") + f" Diagnosed by seatune: {w.effect} added.").strip()
+    entries = []
+    for effect, params in diag.named_effects:
+        entry = {"kind": effect.name, **{k: float(v) for k, v in params.items()}}
+        if effect.name == "moonpool":
+            entry.update(x=float(effect.x), y=float(effect.y))
+        entries.append(entry)
+    data["effects"] = [*(data.get("effects") or []), *entries]
+    data["description"] = (data.get("description", "")
+                           + f" Diagnosed by seatune: {', '.join(e['kind'] for e in entries)} added.").strip()
     with atomic_path(path) as tmp:
         tmp.write_text(yaml.safe_dump(data, sort_keys=False, allow_unicode=True))
 
@@ -224,23 +249,24 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
                      dir_std_deg=run.spec.hindcast.uncertainty.dir_std_deg,
                      null=null_sea(settings.calibration)).run(effects)
     train = data.roles == "train"
-    by_name = {e.name: e for e in effects}
     table = diagnosis_table(diag, effects)
     meta = {"fingerprint": fp}
     if diag.winner is not None:
-        augmented_vessel_yaml(vessel, diag, by_name[diag.winner.effect], augmented)
+        augmented_vessel_yaml(vessel, diag, augmented)
     elif augmented.exists():
         augmented.unlink()  # a previous diagnosis' effect no longer holds
     write_table(residual_table(data, diag), outs[1], RESIDUAL_UNITS, meta)
     write_table(table, outs[0], DIAGNOSIS_UNITS, meta)
     chosen = table[table["selected"]]
-    row = chosen.iloc[0] if len(chosen) else table[table["effect"] == "none"].iloc[0]
+    row = chosen.iloc[-1] if len(chosen) else table[table["effect"] == "none"].iloc[0]  # the final model
     return {"skipped": False, "windows": len(data.window_ids), "holdout": int((~train).sum()),
-            "candidates": len(table) - 1, "named": diag.named, "gain_holdout": float(row["gain_holdout"]),
-            "false_alarm_p": float(row["false_alarm_p"]),
+            "candidates": int((table["step"] == 1).sum()) - 1, "named": diag.named,
+            "steps": [{"effect": r.effect, "gain_holdout": float(r.gain_holdout),
+                       "false_alarm_p": float(r.false_alarm_p), "fitted": json.loads(r.fitted)}
+                      for r in chosen.itertuples()],
             "not_significant": [f"{r.effect} (p {r.false_alarm_p:.2g})" for r in table.itertuples()
                                 if np.isfinite(r.false_alarm_p) and not r.eligible],
-            "fitted": json.loads(row["fitted"]), "bands_before": [describe(b) for b in diag.bands_before],
+            "bands_before": [describe(b) for b in diag.bands_before],
             "bands_after": row["bands_after"], "gap_before": float(row["gap_before_holdout"]),
             "gap_after": float(row["gap_after_holdout"]),
             "sigma_before": float(row["sigma_error_before_holdout"]),

@@ -68,11 +68,13 @@ def _diagnose_line(s: dict, seconds: float) -> str:
     gap = (f"held-out gap {s['gap_before']:.3f} → {s['gap_after']:.3f}, σ error {100 * s['sigma_before']:.1f} % → "
            f"{100 * s['sigma_after']:.1f} %")
     if s["named"]:
-        fitted = ", ".join(f"{k} {v:.3g}" for k, v in s["fitted"].items())
-        p = s.get("false_alarm_p", float("nan"))
-        tested = f", false-alarm p {p:.2g}" if p == p else ""
-        verdict = (f"named {s['named']} ({fitted}; held-out gain {s['gain_holdout']:.1f} nats{tested}), {gap}; "
-                   f"augmented vessel: {s['augmented']}")
+        steps = []
+        for step in s["steps"]:
+            fitted = ", ".join(f"{k} {v:.3g}" for k, v in step["fitted"].items() if "." not in k)  # its own
+            p = step["false_alarm_p"]
+            tested = f", false-alarm p {p:.2g}" if p == p else ""
+            steps.append(f"{step['effect']} ({fitted}; held-out gain {step['gain_holdout']:.1f} nats{tested})")
+        verdict = f"named {', then '.join(steps)}, {gap}; augmented vessel: {s['augmented']}"
     elif s["bands_before"]:
         rejected = s.get("not_significant") or []
         verdict = "no known effect explains the misfit (unexplained, see diagnosis.parquet)" + (

@@ -460,7 +460,8 @@ def _decision(r) -> str:
         return "baseline: the loading refitted without an effect"
     if r.selected:
         p = getattr(r, "false_alarm_p", float("nan"))
-        return "named: the strongest eligible candidate" + (f", false-alarm p {p:.2g}" if np.isfinite(p) else "")
+        return (f"named at step {r.step}: the strongest eligible candidate"
+                + (f", false-alarm p {p:.2g}" if np.isfinite(p) else ""))
     why = []
     if np.isfinite(r.gain_holdout):
         if not r.gain_train > r.bic_penalty:
@@ -470,7 +471,7 @@ def _decision(r) -> str:
     elif not r.gain_train - r.bic_penalty > HOLDOUT_MIN:
         why.append(f"no held-out window: training gain − BIC penalty ≤ {HOLDOUT_MIN:g} nats")
     if r.at_bound:
-        why.append(f"at a bound: {r.at_bound}")
+        why.append(f"at a bound: {r.at_bound}" + (" (search widened to the hull's limit)" if r.widened else ""))
     p = getattr(r, "false_alarm_p", float("nan"))
     if not why and np.isfinite(p) and not r.eligible:
         why.append(f"not significant: false-alarm p {p:.2g} against the calibrated null")
@@ -493,14 +494,20 @@ def diagnosis_section(inp: ReportInputs) -> str | None:
     d = inp.diagnosis
     if d is None or d.empty:
         return None
+    older = {"step": 1, "given": "", "widened": "", "out_of_sample": "", "joint_gain_holdout": d["gain_holdout"]}
+    d = d.assign(**{k: v for k, v in older.items() if k not in d})  # a diagnosis.parquet from before issue 17
     chosen = d[d["selected"]]
-    row = chosen.iloc[0] if len(chosen) else d[d["effect"] == "none"].iloc[0]
+    row = chosen.iloc[-1] if len(chosen) else d[d["effect"] == "none"].iloc[0]  # the final model
     if len(chosen):
-        verdict = (f"<b>{H.esc(row['effect'])}</b> explains the misfit: fitted {H.esc(row['fitted'])}; held-out "
-                   f"log-likelihood gain {row['gain_holdout']:.1f} nats; held-out gap in its band "
-                   f"{row['gap_before_holdout']:.3f} → {row['gap_after_holdout']:.3f}, σ error "
-                   f"{100 * row['sigma_error_before_holdout']:.1f} % → {100 * row['sigma_error_after_holdout']:.1f} %."
-                   f" Written to augmented_vessel.yaml.")
+        own = [", ".join(f"{k} {v:.3g}" for k, v in json.loads(r.fitted).items() if "." not in k)
+               for r in chosen.itertuples()]  # its own parameters, not the refitted ones of those named before
+        named = ", then ".join(f"<b>{H.esc(r.effect)}</b> (fitted {H.esc(o)}; held-out gain {r.gain_holdout:.1f} "
+                               "nats)" for r, o in zip(chosen.itertuples(), own, strict=True))
+        verdict = (f"{named} explain{'s' if len(chosen) == 1 else ''} the misfit; held-out gap in "
+                   f"{'its' if len(chosen) == 1 else 'their'} band {row['gap_before_holdout']:.3f} → "
+                   f"{row['gap_after_holdout']:.3f}, σ error {100 * row['sigma_error_before_holdout']:.1f} % → "
+                   f"{100 * row['sigma_error_after_holdout']:.1f} % ({row['out_of_sample']}). Written to "
+                   "augmented_vessel.yaml.")
     elif row["bands_before"] != "no band of systematic misfit":
         verdict = "<b>No known effect explains the misfit</b>; the unexplained bands are listed below."
     else:
@@ -509,23 +516,29 @@ def diagnosis_section(inp: ReportInputs) -> str | None:
                                                       + row["bands_before"], "")
     if len(chosen):
         body += H.para("Left after adding it: " + row["bands_after"], "")
-    nat = {"held-out gain": "nat", "training gain": "nat", "BIC penalty": "nat", "null 95 %": "nat"}
-    deciding = pd.DataFrame({"effect": d["effect"], "decision": [_decision(r) for r in d.itertuples()],
+    nat = {"held-out gain": "nat", "training gain": "nat", "BIC penalty": "nat", "null 95 %": "nat",
+           "joint held-out gain": "nat"}
+    deciding = pd.DataFrame({"step": d["step"], "given": d["given"].replace("", "–"), "effect": d["effect"],
+                             "decision": [_decision(r) for r in d.itertuples()],
                              "held-out gain": d["gain_holdout"], "training gain": d["gain_train"],
-                             "BIC penalty": d["bic_penalty"]})
+                             "BIC penalty": d["bic_penalty"], "joint held-out gain": d["joint_gain_holdout"]})
     if "false_alarm_p" in d and np.isfinite(d["false_alarm_p"]).any():  # a calibrated run
         deciding["null 95 %"], deciding["false-alarm p"] = d["null_gain_q95"], d["false_alarm_p"]
     deciding["parameters"] = [_parameters(r) for r in d.itertuples()]
     body += H.table(deciding, nat, wide=("decision", "parameters"),
-                    caption="Evidence per candidate effect (diagnosis.parquet): gains are log-likelihood over the "
-                    f"loading refitted without effect; an effect is named when its held-out gain exceeds "
+                    caption="Evidence per candidate effect and step (diagnosis.parquet): an effect named at a step "
+                    "is added to the model and the others are fitted again with it (greedy forward selection); "
+                    "gains are log-likelihood over the step's model (the loading refitted with the effects "
+                    "`given`), joint gains over the model without effect; an effect is named when its held-out "
+                    "gain exceeds "
                     f"{HOLDOUT_MIN:g} nats and its training gain the BIC penalty, with no parameter at a bound, "
                     "and (calibrated runs) the gain is unlikely under the null: data simulated without effect in a "
                     "sea and vessel model erring as estimates do (diagnose.calibration); p = share of null "
                     "replicas scoring as high",
                     row_class=lambda r: "flag" if r["decision"].startswith("named") else "")
-    cols = ["effect", "fitted", "gain_train", "gain_holdout", "bic_penalty", "at_bound", "eligible", "selected",
-            "gap_before_holdout", "gap_after_holdout", "sigma_error_before_holdout", "sigma_error_after_holdout"]
+    cols = ["step", "given", "effect", "fitted", "gain_train", "gain_holdout", "bic_penalty", "at_bound", "widened",
+            "eligible", "selected", "out_of_sample", "gap_before_holdout", "gap_after_holdout",
+            "sigma_error_before_holdout", "sigma_error_after_holdout"]
     shown = d[cols].assign(fitted=d["fitted"].map(
         lambda text: ", ".join(f"{k} {v:.3g}" for k, v in json.loads(text).items()) or "–"))
     units = {**inp.diagnosis_units, "fitted": "units: see diagnosis.parquet fitted_units"}
@@ -537,12 +550,12 @@ def diagnosis_section(inp: ReportInputs) -> str | None:
         used = res[res["used"]]
         worst = (used.assign(a=used["log_ratio_before"].abs()).groupby("channel")["a"].mean()
                  .sort_values(ascending=False).index[:3].tolist())
-        after = f"after: {row['effect']}" if len(chosen) else "after: refitted, no effect"
+        after = f"after: {' + '.join(chosen['effect'])}" if len(chosen) else "after: refitted, no effect"
         body += H.figure(P.png(P.residual_maps(res, worst, after)),
                          "Residual map ln(measured / model) over ω × window for the three most misfitting channels, "
                          "before and after (red: measured above the model)", "residual map before and after")
     descriptions = "".join(f"<li><b>{H.esc(r.effect)}</b>: {H.esc(r.signature)}</li>" for r in d.itertuples()
-                           if r.effect != "none")
+                           if r.effect != "none" and r.step == 1)
     body += H.details("The candidate effects and their signatures", f"<ul>{descriptions}</ul>")
     return H.section("diagnosis", "Diagnosis", body,
                      "Where the tuned model still disagrees with the measurements, which known physical effect "
