@@ -224,7 +224,8 @@ def _fit(problem: _Problem, x0: np.ndarray, priors) -> optimize.OptimizeResult:
 
 def _search_added(problem: _Problem, x: np.ndarray, priors, min_hs: float, starts: int = 3) -> list[np.ndarray]:
     """Starting points of an added partition: the best cells of a (Tp, direction, Hs) grid with the others
-    fixed, at least 90° apart in direction (the heave/pitch fore–aft mirror is a second minimum)."""
+    fixed, at least 90° apart in direction (the heave/pitch fore–aft mirror is a second minimum), and the splits
+    of broad partitions (`_split_starts`)."""
     cells = []
     for tp in (5.0, 7.0, 9.5, 12.0, 15.0, 19.0):
         for d in np.arange(0.0, 360.0, 30.0):
@@ -237,7 +238,29 @@ def _search_added(problem: _Problem, x: np.ndarray, priors, min_hs: float, start
             chosen.append((d, cand))
         if len(chosen) == starts:
             break
-    return [c for _, c in chosen]
+    return [c for _, c in chosen] + _split_starts(x)
+
+
+SPLIT_SPREAD_DEG = 25.0  # a fitted partition this broad may be two systems of one period crossing
+
+
+def _split_starts(x: np.ndarray) -> list[np.ndarray]:
+    """Starts that split each broad partition into two narrow ones of its period, ± its spread either side, half
+    its energy each: two swells of one period from directions 60–90° apart fit as one broad swell, and a grid
+    start with that broad swell held fixed finds nothing to add. The half on either side keeps the old one's
+    prior (the hindcast's system may be either)."""
+    out = []
+    for k, xp in enumerate(x):
+        spread = float(np.exp(xp[3]))
+        if spread < SPLIT_SPREAD_DEG:
+            continue
+        offset = min(spread, 60.0)
+        for side in (-1.0, 1.0):
+            cand = np.vstack([x, xp])
+            cand[k, [0, 2, 3]] = xp[0] - 0.5 * np.log(2.0), xp[2] + side * offset, np.log(15.0)
+            cand[-1, [0, 2, 3]] = xp[0] - 0.5 * np.log(2.0), xp[2] - side * offset, np.log(15.0)
+            out.append(cand)
+    return out
 
 
 def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_from_deg: np.ndarray,
