@@ -376,6 +376,9 @@ EFFECT_NAMES = ("quadratic_roll_damping", "moonpool", "anti_roll_tank", "imu_lev
                 "hs_bias", "missing_swell", "wave_spreading")
 
 
+#: effects that change only the sea the model is driven with
+SEA_SIDE = ("hs_bias", "missing_swell", "wave_spreading")
+
 #: effects that change the vessel's transfer functions (tuning and prediction can use them); the others act on
 #: the sea (hs_bias, missing_swell, wave_spreading) or depend on the sea state (quadratic_roll_damping)
 MODEL_SIDE = ("moonpool", "anti_roll_tank", "imu_lever_arm", "imu_misalignment")

@@ -28,7 +28,7 @@ from scipy.optimize import minimize
 from scipy.special import digamma, polygamma
 
 from seatune.diagnosis import residuals as res
-from seatune.diagnosis.effects import Compound
+from seatune.diagnosis.effects import SEA_SIDE, Compound
 from seatune.diagnosis.model import SpectralModel, WindowSet, spectra_in_sea
 from seatune.physics.response import trapezoid_weights
 
@@ -229,9 +229,10 @@ class Diagnoser:
                    len(effect.parameters) if effect else 0, bool(result.success), std, effect_used=effect)
 
     def _scan(self, x0, effect, bands, loading_bounds):
-        """The best start over the effect's scan grid; for an effect that trades against the loading (a damping
-        that the tuned linear damping absorbed), the loading is refitted briefly at each grid point, else every
-        start but q = 0 looks worse and the fit stays there."""
+        """The best start over the effect's scan grid. For an effect that trades against the loading (a damping
+        the tuned linear damping absorbed) the loading is refitted briefly at each grid point, else every start
+        but q = 0 looks worse and the fit stays there; and the tuned loading is a second start (the refit without
+        effect can slide far along the gmt–r44 ridge, away from the roll frequency the damping acts at)."""
         p = len(self.parameters)
         parts0 = self.model.parts(self.phi_start)
         scans = effect.scan_values(parts0, bands)
@@ -245,9 +246,12 @@ class Diagnoser:
                 values = tuple(values) + tuple(b.omega_peak for b in bands)
             grids.append([(v - q.lower) / (q.upper - q.lower) for v in values] or [x0[p + names.index(q.name)]])
         best, best_x = np.inf, x0
-        for combo in itertools.product(*grids):
+        starts = [x0[:p]]  # the step's refitted loading
+        if effect.trades_with_loading and np.any(x0[:p] != 0):
+            starts.append(np.zeros(p))  # and the tuned one
+        for start, combo in itertools.product(starts, itertools.product(*grids)):
             x = x0.copy()
-            x[p:] = np.clip(combo, 0.0, 1.0)
+            x[:p], x[p:] = start, np.clip(combo, 0.0, 1.0)
             if effect.trades_with_loading:
                 inner = minimize(lambda xl, x=x: self._objective(np.r_[xl, x[p:]], effect), x[:p], method="L-BFGS-B",
                                  bounds=loading_bounds, options={"maxiter": 10, "eps": 1e-4})
@@ -326,7 +330,8 @@ class Diagnoser:
         step_base, bands_now = base, found
         while len(named) < max_named:
             given = _members(step_base)
-            left = [e for e in candidates if e.name not in {g.name for g, _ in given}]
+            left = [e for e in candidates if e.name not in {g.name for g, _ in given}
+                    and _may_follow(e.name, given, rows)]
             if not left:
                 break
             fits = [self.fit(Compound(given, e) if given else e, bands_now, start=step_base) for e in left]
@@ -513,6 +518,19 @@ def _band_selection(data: WindowSet, found) -> np.ndarray:
     for b in found:
         sel |= b.channel_mask[:, None] & b.bins[None, :]
     return data.mask & sel[None]
+
+
+def _may_follow(name: str, given: list[tuple], rows: list[dict]) -> bool:
+    """Whether a candidate is fitted again after others were named: the sea gets one correction (a second sea-side
+    effect on top of the first fits the first's excess, e.g. a 4 m, 20 s swell on a widened sea), and only a
+    candidate whose first-step training gain beat its BIC penalty is refitted (the others showed no trace of
+    their signature in the training windows; each further step costs a fit per candidate)."""
+    if not given:
+        return True
+    if name in SEA_SIDE and any(g.name in SEA_SIDE for g, _ in given):
+        return False
+    first = next(r for r in rows if r["step"] == 1 and r["added"] == name)
+    return first["gain_train"] > first["bic_penalty"]
 
 
 def _members(fit: Fit) -> list[tuple]:

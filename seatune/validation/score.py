@@ -9,10 +9,11 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from seatune.diagnosis.effects import SEA_SIDE
 from seatune.identification.sea_estimation import direction_difference_deg
 
 VESSEL_EFFECTS = ("quadratic_roll_damping", "moonpool", "anti_roll_tank", "imu_lever_arm", "imu_misalignment")
-SEA_EFFECTS = ("hs_bias", "missing_swell", "wave_spreading")
+SEA_EFFECTS = SEA_SIDE
 DOFS = ("heave", "roll", "pitch")
 PARAMETERS = ("gmt_fs", "r44", "beta44", "xcg", "r55")
 # issue 15's targets: parameter → (tolerance, "abs" | "rel")
