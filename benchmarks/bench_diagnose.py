@@ -118,7 +118,37 @@ def run() -> dict:
             out[f"{effect}_ratio"] = round(ref_s / our_s, 1)
             out[f"{effect}_max_rel_diff"] = float(np.max(np.abs(val - ref) / np.abs(ref)))
     out.update(_calibration_cost(vessel))
+    out.update(_greedy_cost(vessel))
     return out
+
+
+def _greedy_cost(vessel) -> dict:
+    """The selection on a 9-window trial hiding a moonpool and a displaced IMU, stopping after the first named
+    effect (the selection before issue 17's greedy steps) and greedy (name, add, refit, repeat): cost ratio."""
+    import time
+
+    from seatune.diagnosis.select import Diagnoser
+    from tests import diagnosis_trials as trials
+
+    seconds, named = {}, {}
+    run = Diagnoser.run
+
+    def timed(self, *args, **kwargs):  # the selection only, not the trial's time-domain simulation
+        t = time.perf_counter()
+        try:
+            return run(self, *args, **{**kwargs, "max_named": limit})
+        finally:
+            seconds[limit] = time.perf_counter() - t
+
+    Diagnoser.run = timed
+    try:
+        for limit in (1, 3):
+            named[limit] = trials.trial(vessel, ("moonpool", "imu_lever_arm"), 0)[0].named
+    finally:
+        Diagnoser.run = run
+    return {"selection_first_named_s": round(seconds[1], 1), "selection_greedy_s": round(seconds[3], 1),
+            "greedy_cost_ratio": round(seconds[3] / seconds[1], 1), "named_first": named[1],
+            "named_greedy": named[3]}
 
 
 def _calibration_cost(vessel) -> dict:

@@ -56,7 +56,8 @@ def window_set(vessel, windows, states, roles, hs_error, tp_error=None, beta_err
 
 
 def trial(vessel, effect: str | tuple[str, ...] | None, seed: int, n_windows: int = 9, duration_s: float = 1800.0,
-          hs_rel_std: float = 0.05, tp_std_s: float = 0.0, dir_std_deg: float = 0.0, null=None, effects=None):
+          hs_rel_std: float = 0.05, tp_std_s: float = 0.0, dir_std_deg: float = 0.0, null=None, effects=None,
+          max_named: int = 1):
     """(Diagnosis, truth φ) of one trial; every third window is held out. The model's sea state is the truth with
     hindcast errors: Hs × e^N(0, hs_rel_std), Tp + N(0, tp_std_s), β + N(0, dir_std_deg). `effect`: one name or
     a tuple of names (a compound trial)."""
@@ -72,4 +73,4 @@ def trial(vessel, effect: str | tuple[str, ...] | None, seed: int, n_windows: in
     diag = Diagnoser(vessel, PARAMETERS, data, start, hs_rel_std=hs_rel_std, tp_std_s=tp_std_s,
                      dir_std_deg=dir_std_deg, null=null)
     truth = np.array([TRUTH[p.name] for p in PARAMETERS])
-    return diag.run(library(effects, moonpool_position=MOONPOOL_AT), phi_before="refit"), truth
+    return diag.run(library(effects, moonpool_position=MOONPOOL_AT), phi_before="refit", max_named=max_named), truth

@@ -310,7 +310,8 @@ def test_layout_at_1280px_nothing_cut_spectra_per_window_and_the_evidence_toggle
     accepted = {f"response spectra W{w}" for w in windows.loc[windows["accepted"], "window_id"]}
     assert {alt for alt, _ in got["spectra"]} == accepted and len(got["spectra"]) == len(accepted) == 3
     assert all(width >= 800 for _, width in got["spectra"])
-    assert got["deciding"] == ["effect", "decision", "held-out gain", "training gain", "BIC penalty", "parameters"]
+    assert got["deciding"] == ["step", "given", "effect", "decision", "held-out gain", "training gain", "BIC penalty",
+                               "joint held-out gain", "parameters"]
     rest = [heads for is_open, heads in got["toggles"] if "gap_before_holdout" in heads]
     assert len(rest) == 1 and not [o for o, heads in got["toggles"] if heads == rest[0] and o]
 

@@ -34,7 +34,6 @@ from seatune.physics.response import trapezoid_weights
 
 BIN_CORRELATION = 1.5  # Hann window's equivalent noise bandwidth [bins]
 AFFECTED_CHANGE = 0.1  # a bin is in an effect's band where it changes the expected spectrum by ≥ 10 % (log)
-MAX_NAMED = 3  # effects the greedy selection may name in turn
 HOLDOUT_MIN = 4.0  # held-out log-likelihood gain [nats] to name an effect (Jeffreys: "strong", odds > 50)
 COMMON_SHARE = 0.8  # share of the χ² sampling variance common to all channels at a frequency
 INDEPENDENT_FLOOR = 0.05**2  # per-channel, per-bin variance no model resolves (sensor noise, small effects)
@@ -310,7 +309,7 @@ class Diagnoser:
         w = natural_frequencies(self.vessel.db, self.model.loading(phi), dofs=(2, 3, 4))[0]
         return {res.DOF_NAMES[d]: float(v) for d, v in zip((2, 3, 4), w, strict=True)}
 
-    def run(self, effects, phi_before: np.ndarray | str | None = None, max_named: int = MAX_NAMED) -> Diagnosis:
+    def run(self, effects, phi_before: np.ndarray | str | None = None, max_named: int = 1) -> Diagnosis:
         """Greedy forward selection (issue 17): fit every candidate, name the strongest eligible one, add it to the
         model and fit the others with it (its parameters refitted jointly), until none passes or `max_named` are
         named. `phi_before`: the tuned loading the gap is measured from (default the start); "refit": the loading

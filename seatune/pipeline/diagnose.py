@@ -247,7 +247,7 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
                      hs_rel_std=run.spec.hindcast.uncertainty.hs_rel_std,
                      tp_std_s=run.spec.hindcast.uncertainty.tp_std_s,
                      dir_std_deg=run.spec.hindcast.uncertainty.dir_std_deg,
-                     null=null_sea(settings.calibration)).run(effects)
+                     null=null_sea(settings.calibration)).run(effects, max_named=settings.max_effects)
     train = data.roles == "train"
     table = diagnosis_table(diag, effects)
     meta = {"fingerprint": fp}
