@@ -406,24 +406,3 @@ def test_the_lever_arm_reaches_across_the_hull():
     dx = next(q for q in lever.parameters if q.name == "dx")
     assert (dx.lower, dx.upper) == (-96.0, 96.0) and 48.0 in dx.scan and -48.0 in dx.scan
     assert EFFECT["imu_lever_arm"].parameters[0].upper == 15.0  # no vessel: the old range
-
-
-@pytest.mark.parametrize("change", [-15.0, -8.0, 20.0, 40.0])
-def test_wave_spreading_narrows_and_widens_the_window_spread(change):
-    """`wave_spreading` keeps each frequency's energy and moves a 30° wrapped-normal sea's circular spread
-    σ = √(2(1 − m1)) to 30 + Δ when narrowing, to √(30² + Δ²) when widening (a cos-2s of spread Δ convolved)."""
-    from seatune.diagnosis.effects import respread
-
-    beta = np.radians(np.arange(0.0, 360.0, 5.0))
-    d = (beta - np.radians(200.0) + np.pi) % (2 * np.pi) - np.pi
-    one = sum(np.exp(-0.5 * ((d + 2 * np.pi * k) / np.radians(30.0)) ** 2) for k in (-1, 0, 1))
-
-    def spread(s):
-        m1 = np.hypot(s @ np.cos(beta), s @ np.sin(beta)) / s.sum(axis=-1)
-        return np.degrees(np.sqrt(2 * (1 - m1)))
-
-    wave = np.stack([2.0 * one, one])[None]  # (1 window, 2 ω, nb)
-    out = respread(wave, beta, change)
-    assert np.allclose(out.sum(axis=-1), wave.sum(axis=-1))
-    expected = 30.0 + change if change < 0 else np.hypot(30.0, change)
-    assert spread(out[0]) == pytest.approx(np.full(2, spread(wave[0])[0] / 30.0 * expected), rel=0.05)

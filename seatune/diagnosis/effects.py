@@ -37,8 +37,12 @@ class EffectParameter:
 
     @property
     def widenable(self) -> bool:
-        return (self.limit_lower is not None and self.limit_lower < self.lower) or (
-            self.limit_upper is not None and self.limit_upper > self.upper)
+        return self.widened() != self
+
+    def widened(self) -> EffectParameter:
+        lower = self.lower if self.limit_lower is None else min(self.lower, self.limit_lower)
+        upper = self.upper if self.limit_upper is None else max(self.upper, self.limit_upper)
+        return dataclasses.replace(self, lower=lower, upper=upper)
 
 
 class Effect:
@@ -66,11 +70,7 @@ class Effect:
     def widened(self, names) -> Effect:
         """A copy whose named parameters search up to their physical limits (a fit stopped at a search bound)."""
         out = copy.copy(self)
-        out.parameters = tuple(dataclasses.replace(q, lower=min(q.lower, q.limit_lower if q.limit_lower is not None
-                                                                else q.lower),
-                                                   upper=max(q.upper, q.limit_upper if q.limit_upper is not None
-                                                             else q.upper))
-                               if q.name in names else q for q in self.parameters)
+        out.parameters = tuple(q.widened() if q.name in names else q for q in self.parameters)
         return out
 
 
@@ -228,7 +228,7 @@ def hull_extent(vessel) -> tuple[float, float] | None:
     k = len(db.drafts) // 2
     c = db.buoyancy_stiffness[k] / (db.rho * db.g)
     z_b = float(db.center_of_buoyancy[k, 2])
-    area = float(c[2, 2])
+    area = waterplane_area(vessel)
     i_t, i_l = float(c[3, 3]) - db.disp_volume[k] * z_b, float(c[4, 4]) - db.disp_volume[k] * z_b
     if not (np.isfinite(z_b) and area > 0 and i_t > 0 and i_l > 0):
         return None
@@ -330,31 +330,12 @@ class MissingSwell(Effect):
 
 class WaveSpreading(Effect):
     name = "wave_spreading"
-    signature = ("the sea is more or less short-crested than diagnose's: wider, head/following-sea windows show roll "
-                 "and sway the model lacks and beam-sea windows less roll at the peak; narrower, the reverse")
-    parameters = (EffectParameter("spread_change_deg", "deg", 0.0, -25.0, 80.0, scan=(-20.0, -10.0, 0.0, 10.0, 25.0,
-                                                                                       45.0)),)
+    signature = ("the sea is more short-crested than the hindcast: head/following-sea windows show roll and sway "
+                 "the model lacks, beam-sea windows less roll at the peak")
+    parameters = (EffectParameter("spread_deg", "deg", 3.0, 3.0, 80.0, scan=(3.0, 10.0, 25.0, 45.0)),)
 
     def apply(self, parts, params, model):
-        parts.wave = respread(parts.wave, parts.beta, params["spread_change_deg"])
-
-
-NARROW_REFERENCE_DEG = 30.0  # a partition's typical spread: a change Δ < 0 takes it to 30 + Δ degrees
-
-
-def respread(wave: np.ndarray, beta: np.ndarray, change_deg: float) -> np.ndarray:
-    """S(ω, β)·Δβ per window (nw, nf, nb) spread wider or narrower, each frequency's energy kept. Wider (Δ > 0):
-    convolved with a cos-2s of spread Δ (spreads add in quadrature). Narrower (Δ < 0): S^p renormalised with
-    p = (30 / (30 + Δ))², which takes a 30° wrapped normal to 30 + Δ (its σ scales as 1/√p) and every other spread
-    in proportion; a convolution cannot be undone stably, and a spread measured per window mixes its systems."""
-    if change_deg >= 0.0:
-        return wave @ spreading_kernel(beta, change_deg).T if change_deg >= 1.0 else wave
-    total = wave.sum(axis=-1, keepdims=True)
-    peak = wave.max(axis=-1, keepdims=True)
-    p = (NARROW_REFERENCE_DEG / (NARROW_REFERENCE_DEG + change_deg)) ** 2
-    shaped = (wave / np.where(peak > 0, peak, 1.0)) ** p
-    norm = shaped.sum(axis=-1, keepdims=True)
-    return shaped * total / np.where(norm > 0, norm, 1.0)
+        parts.wave = parts.wave @ spreading_kernel(parts.beta, params["spread_deg"]).T
 
 
 def spreading_kernel(beta: np.ndarray, spread_deg: float) -> np.ndarray:
