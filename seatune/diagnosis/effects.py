@@ -51,7 +51,6 @@ class Effect:
     name = ""
     signature = ""
     parameters: tuple[EffectParameter, ...] = ()
-    trades_with_loading = False  # its start is scanned with the loading refitted (Diagnoser._scan)
 
     def applicable(self, vessel, channels) -> bool:
         return True
@@ -82,7 +81,6 @@ class Compound(Effect):
     def __init__(self, given: list[tuple[Effect, dict]], added: Effect):
         self.members = [e for e, _ in given] + [added]
         self.added = added
-        self.trades_with_loading = added.trades_with_loading
         self.name = "+".join(e.name for e in self.members)
         self.signature = "; ".join(e.signature for e in self.members)
         starts = [p for _, p in given] + [{}]
@@ -136,7 +134,6 @@ class QuadraticRollDamping(Effect):
                  "(roll, roll rate, lateral accelerations; residual correlates with Hs)")
     parameters = (EffectParameter("q", "1/rad", 0.0, 0.0, 20.0, scan=(0.0, 0.3, 1.0, 3.0)),)
     iterations = 8
-    trades_with_loading = True  # the tuned linear β44 holds its mean
 
     def spectra(self, parts, params, model):
         # roll moment −q (I44 + A44(ω_n)) |φ̇| φ̇, linearised per window: b_eq = √(8/π) σ_φ̇ b2 (seed_002 eq. 2.19);

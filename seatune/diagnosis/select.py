@@ -218,7 +218,7 @@ class Diagnoser:
             x0 = np.r_[x0, [(values[q.name] - q.lower) / (q.upper - q.lower) for q in effect.parameters]]
             bounds += [(0.0, 1.0)] * len(effect.parameters)
             if x_from is None:
-                x0 = self._scan(x0, effect, bands, bounds[:p])
+                x0 = self._scan(x0, effect, bands)
         result = minimize(self._objective, x0, args=(effect,), method="L-BFGS-B", bounds=bounds,
                           options={"maxiter": 200, "eps": 1e-4})
         phi, params = self._unpack(result.x, effect)
@@ -227,11 +227,7 @@ class Diagnoser:
         return Fit(effect.name if effect else "none", params, phi, self.nll(phi, effect, params), nll_h,
                    len(effect.parameters) if effect else 0, bool(result.success), std, effect_used=effect)
 
-    def _scan(self, x0, effect, bands, loading_bounds):
-        """The best start over the effect's scan grid. For an effect that trades against the loading (a damping
-        the tuned linear damping absorbed) the loading is refitted briefly at each grid point, else every start
-        but q = 0 looks worse and the fit stays there; and the tuned loading is a second start (the refit without
-        effect can slide far along the gmt–r44 ridge, away from the roll frequency the damping acts at)."""
+    def _scan(self, x0, effect, bands):
         p = len(self.parameters)
         parts0 = self.model.parts(self.phi_start)
         scans = effect.scan_values(parts0, bands)
@@ -245,18 +241,10 @@ class Diagnoser:
                 values = tuple(values) + tuple(b.omega_peak for b in bands)
             grids.append([(v - q.lower) / (q.upper - q.lower) for v in values] or [x0[p + names.index(q.name)]])
         best, best_x = np.inf, x0
-        starts = [x0[:p]]  # the step's refitted loading
-        if effect.trades_with_loading and np.any(x0[:p] != 0):
-            starts.append(np.zeros(p))  # and the tuned one
-        for start, combo in itertools.product(starts, itertools.product(*grids)):
+        for combo in itertools.product(*grids):
             x = x0.copy()
-            x[:p], x[p:] = start, np.clip(combo, 0.0, 1.0)
-            if effect.trades_with_loading:
-                inner = minimize(lambda xl, x=x: self._objective(np.r_[xl, x[p:]], effect), x[:p], method="L-BFGS-B",
-                                 bounds=loading_bounds, options={"maxiter": 10, "eps": 1e-4})
-                x[:p], value = inner.x, float(inner.fun)
-            else:
-                value = self._objective(x, effect)
+            x[p:] = np.clip(combo, 0.0, 1.0)
+            value = self._objective(x, effect)
             if value < best:
                 best, best_x = value, x
         return best_x
