@@ -57,7 +57,7 @@ class Effect:
 
     def scan_values(self, parts0, bands) -> dict[str, tuple[float, ...]]:
         """Start values to scan per parameter: the declared scan plus the centres of residual bands."""
-        return {p.name: p.scan for p in self.parameters if p.scan}
+        return with_band_peaks({p.name: p.scan for p in self.parameters if p.scan}, self.parameters, bands)
 
     def apply(self, parts, params: dict, model) -> None:
         raise NotImplementedError
@@ -93,11 +93,7 @@ class Compound(Effect):
         return all(e.applicable(vessel, channels) for e in self.members)
 
     def scan_values(self, parts0, bands):
-        own = self.added.scan_values(parts0, bands)
-        for q in self.added.parameters:  # resonances start where the residual says (Diagnoser._scan)
-            if q.name.startswith("omega") and bands:
-                own[q.name] = tuple(own.get(q.name, ())) + tuple(b.omega_peak for b in bands)
-        return {f"{self.added.name}.{k}": v for k, v in own.items()}
+        return {f"{self.added.name}.{k}": v for k, v in self.added.scan_values(parts0, bands).items()}
 
     def split(self, params: dict) -> list[tuple[Effect, dict]]:
         return [(e, {q.name: params[f"{e.name}.{q.name}"] for q in e.parameters}) for e in self.members]
@@ -118,6 +114,14 @@ class Compound(Effect):
             if (e, p) not in last:
                 e.apply(parts, p, model)
         return last[0][0].spectra(parts, last[0][1], model) if last else parts.spectra()
+
+
+def with_band_peaks(scans: dict, parameters, bands) -> dict[str, tuple[float, ...]]:
+    """`scans` with the centres of the located misfit bands added to each resonance frequency (omega_*): a
+    resonance starts where the residual says."""
+    peaks = tuple(b.omega_peak for b in bands)
+    return {**scans, **{q.name: tuple(scans.get(q.name, ())) + peaks for q in parameters
+                        if peaks and q.name.startswith("omega")}}
 
 
 def attach_dof(parts, row: np.ndarray, c_tilde: np.ndarray, z: np.ndarray, f_q: np.ndarray | None = None) -> None:
@@ -199,7 +203,8 @@ class AntiRollTank(Effect):
 
     def scan_values(self, parts0, bands):
         w = parts0.omega_roll
-        return {"omega_t": tuple(np.round(w * np.array([0.8, 0.9, 1.0, 1.1, 1.2]), 4))}
+        return with_band_peaks({"omega_t": tuple(np.round(w * np.array([0.8, 0.9, 1.0, 1.1, 1.2]), 4))},
+                               self.parameters, bands)
 
     def apply(self, parts, params, model):
         # rotational absorber on roll (Den Hartog): I_t = μ (I44 + A44), k̃ = I_t ω_t² − iω 2ζ_t I_t ω_t

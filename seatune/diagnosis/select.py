@@ -237,8 +237,6 @@ class Diagnoser:
         grids = []
         for q in effect.parameters:
             values = scans.get(q.name, ())
-            if q.name.startswith("omega") and bands:  # resonances start where the residual says
-                values = tuple(values) + tuple(b.omega_peak for b in bands)
             grids.append([(v - q.lower) / (q.upper - q.lower) for v in values] or [x0[p + names.index(q.name)]])
         best, best_x = np.inf, x0
         for combo in itertools.product(*grids):
@@ -337,7 +335,7 @@ class Diagnoser:
         r1, sd1, _ = ctx.cache[(winner or base).effect]
         return Diagnosis(rows=rows, winner=winner, base=base, phi_before=phi_before, bands_before=found,
                          bands_after=ctx.left, residual_before=(r0, sd0), residual_after=(r1, sd1), gaps=ctx.gaps,
-                         parameter_names=tuple(p.name for p in self.parameters), named_fits=named)
+                         parameter_names=tuple(p.name for p in self.parameters))
 
     def _row(self, f: Fit, step_base: Fit, step: int, ctx: _Context) -> dict:
         """One candidate at one step: its gains over the step's model (the effects named so far), its joint gains
@@ -554,7 +552,6 @@ class Diagnosis:
     residual_after: tuple
     gaps: dict  # per fit: gap_/sigma_error_ {train, holdout} _ {before, after}, in the bins it affects
     parameter_names: tuple = ()
-    named_fits: list = field(default_factory=list)  # the fit of each step that named an effect, in order
 
     @property
     def named(self) -> str | None:
