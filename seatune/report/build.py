@@ -458,8 +458,8 @@ def _decision(r) -> str:
     """Why diagnose named or passed over a candidate (seatune.diagnosis.select's rule, in words)."""
     if r.effect == "none":
         return "baseline: the loading refitted without an effect"
+    p = r.false_alarm_p
     if r.selected:
-        p = getattr(r, "false_alarm_p", float("nan"))
         return (f"named at step {r.step}: the strongest eligible candidate"
                 + (f", false-alarm p {p:.2g}" if np.isfinite(p) else ""))
     why = []
@@ -472,7 +472,6 @@ def _decision(r) -> str:
         why.append(f"no held-out window: training gain − BIC penalty ≤ {HOLDOUT_MIN:g} nats")
     if r.at_bound:
         why.append(f"at a bound: {r.at_bound}" + (" (search widened to the hull's limit)" if r.widened else ""))
-    p = getattr(r, "false_alarm_p", float("nan"))
     if not why and np.isfinite(p) and not r.eligible:
         why.append(f"not significant: false-alarm p {p:.2g} against the calibrated null")
     if r.eligible and not why:
@@ -494,7 +493,8 @@ def diagnosis_section(inp: ReportInputs) -> str | None:
     d = inp.diagnosis
     if d is None or d.empty:
         return None
-    older = {"step": 1, "given": "", "widened": "", "out_of_sample": "", "joint_gain_holdout": d["gain_holdout"]}
+    older = {"step": 1, "given": "", "widened": "", "out_of_sample": "", "joint_gain_holdout": d["gain_holdout"],
+             "false_alarm_p": np.nan, "null_gain_q95": np.nan}
     d = d.assign(**{k: v for k, v in older.items() if k not in d})  # a diagnosis.parquet from before issue 17
     chosen = d[d["selected"]]
     row = chosen.iloc[-1] if len(chosen) else d[d["effect"] == "none"].iloc[0]  # the final model
@@ -522,7 +522,7 @@ def diagnosis_section(inp: ReportInputs) -> str | None:
                              "decision": [_decision(r) for r in d.itertuples()],
                              "held-out gain": d["gain_holdout"], "training gain": d["gain_train"],
                              "BIC penalty": d["bic_penalty"], "joint held-out gain": d["joint_gain_holdout"]})
-    if "false_alarm_p" in d and np.isfinite(d["false_alarm_p"]).any():  # a calibrated run
+    if np.isfinite(d["false_alarm_p"]).any():  # a calibrated run
         deciding["null 95 %"], deciding["false-alarm p"] = d["null_gain_q95"], d["false_alarm_p"]
     deciding["parameters"] = [_parameters(r) for r in d.itertuples()]
     body += H.table(deciding, nat, wide=("decision", "parameters"),
