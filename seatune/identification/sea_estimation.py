@@ -136,6 +136,12 @@ def partition_spectrum(omega: np.ndarray, dirs_from_deg: np.ndarray, x: np.ndarr
 
     JONSWAP (σa 0.07, σb 0.09) normalised numerically to Hs²/16; cos-2s spreading with s = 2/σθ² − 1 (Kuik et al.
     1988), normalised on the discrete direction grid."""
+    s1, d = _partition_factors(omega, dirs_from_deg, x)
+    return s1.T @ d
+
+
+def _partition_factors(omega: np.ndarray, dirs_from_deg: np.ndarray, x: np.ndarray):
+    """Each partition's frequency spectrum (P, nω) and normalised spreading (P, nD): S = Σ_p s1_p ⊗ d_p."""
     hs, wp = np.exp(x[:, 0]), TWO_PI / np.exp(x[:, 1])
     spread, gamma = np.radians(np.exp(x[:, 3])), np.exp(x[:, 4])
     u = np.maximum(omega, 1e-9)[None, :] / wp[:, None]
@@ -146,7 +152,7 @@ def partition_spectrum(omega: np.ndarray, dirs_from_deg: np.ndarray, x: np.ndarr
     d = np.clip(np.cos(0.5 * theta), 0.0, None) ** (2.0 * s[:, None])  # cos-2s, unnormalised
     d_dir = TWO_PI / dirs_from_deg.size
     d /= np.maximum(d.sum(axis=1, keepdims=True), 1e-300) * d_dir
-    return np.einsum("pw,pd->wd", s1, d)
+    return s1, d
 
 
 def outer_raos(h: np.ndarray) -> np.ndarray:
@@ -177,9 +183,10 @@ class _Problem:
     pairs: tuple[np.ndarray, np.ndarray]
 
     def statistics(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        auto = np.maximum(np.real(np.einsum("wjj->wj", phi)), 0.0) + np.maximum(self.floor, 1e-300)
+        """Log autospectra and coherencies of Φ (…, nω, nch, nch)."""
+        auto = np.maximum(np.real(np.einsum("...jj->...j", phi)), 0.0) + np.maximum(self.floor, 1e-300)
         i, j = self.pairs
-        return np.log(auto), phi[:, i, j] / np.sqrt(auto[:, i] * auto[:, j])
+        return np.log(auto), phi[..., i, j] / np.sqrt(auto[..., i] * auto[..., j])
 
     def residuals(self, x_flat: np.ndarray, priors: list[PartitionPrior | None]) -> np.ndarray:
         x = x_flat.reshape(-1, 5)
@@ -192,6 +199,37 @@ class _Problem:
             d[2] = (d[2] + 180.0) % 360.0 - 180.0
             r.append(np.where(np.isfinite(std), d / std, 0.0))
         return np.concatenate(r)
+
+    def jacobian(self, x_flat: np.ndarray, priors: list[PartitionPrior | None], lower, upper) -> np.ndarray:
+        """Forward differences of `residuals`, batched: a step of one partition's coordinate changes only that
+        partition's spectrum, and Φ is linear in the spectrum, so every column is one (nω, nD) × G product of a
+        single stacked call instead of a whole residual evaluation per column."""
+        x = x_flat.reshape(-1, 5)
+        n_part = len(x)
+        step = 1.49e-8 * np.maximum(1.0, np.abs(x_flat))  # √ε relative, as scipy's 2-point scheme
+        step = np.where(x_flat + step > upper, -step, step)
+        moved = np.repeat(x, 5, axis=0)  # row q = 5p + c: partition p with coordinate c moved
+        moved[np.arange(x.size), np.tile(np.arange(5), n_part)] += step
+        s1_0, d_0 = _partition_factors(self.omega, self.dirs, x)
+        s1, d = _partition_factors(self.omega, self.dirs, moved)
+        base = np.repeat(np.arange(n_part), 5)
+        d_wave = s1[:, :, None] * d[:, None, :] - s1_0[base][:, :, None] * d_0[base][:, None, :]  # (5P, nω, nD)
+        phi0 = model_cross_spectra(self.g, s1_0.T @ d_0)
+        nw, nd, nch, _ = self.g.shape
+        d_phi = np.moveaxis(d_wave, 0, 1).astype(self.g.dtype) @ self.g.reshape(nw, nd, nch * nch)  # (nω, 5P, ·)
+        phi = phi0[None] + np.moveaxis(d_phi, 1, 0).reshape(-1, nw, nch, nch) * (TWO_PI / nd)
+        log0, coh0 = self.statistics(phi0)
+        log_q, coh_q = self.statistics(phi)
+        data = np.concatenate([(-(log_q - log0) / self.auto_std).reshape(len(phi), -1),
+                               (-(coh_q.real - coh0.real) / self.coh_std).reshape(len(phi), -1),
+                               (-(coh_q.imag - coh0.imag) / self.coh_std).reshape(len(phi), -1)], axis=1)
+        jac = np.zeros((data.shape[1] + x.size, x.size))
+        jac[: data.shape[1]] = (data / step[:, None]).T
+        for k, prior in enumerate(priors):
+            std = prior.std() if prior is not None else _FREE_STD
+            rows = data.shape[1] + 5 * k + np.arange(5)
+            jac[rows, 5 * k + np.arange(5)] = np.where(np.isfinite(std), 1.0 / std, 0.0)
+        return jac
 
     def mask(self, anchor: np.ndarray) -> np.ndarray:
         """The data residuals (not the priors') of the autospectra marked in anchor (nω, nch) and the coherency
@@ -218,7 +256,8 @@ _UPPER = np.array([np.log(15.0), np.log(25.0), np.inf, np.log(80.0), np.log(7.0)
 def _fit(problem: _Problem, x0: np.ndarray, priors) -> optimize.OptimizeResult:
     lo, hi = np.tile(_LOWER, len(priors)), np.tile(_UPPER, len(priors))
     x0 = np.clip(x0.ravel(), lo + 1e-9, hi - 1e-9)
-    return optimize.least_squares(problem.residuals, x0, args=(priors,), bounds=(lo, hi), x_scale="jac",
+    return optimize.least_squares(problem.residuals, x0, jac=lambda x, p: problem.jacobian(x, p, lo, hi),
+                                  args=(priors,), bounds=(lo, hi), x_scale="jac",
                                   method="trf", max_nfev=25 * x0.size, xtol=1e-5, ftol=1e-6)
 
 
