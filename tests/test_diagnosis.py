@@ -310,6 +310,17 @@ def test_too_few_calibration_replicas_for_the_false_alarm_rate_is_one_line_and_e
     assert "diagnose.calibration" in res.stderr and "at least 19" in res.stderr
 
 
+def test_the_tank_is_searched_near_the_roll_natural_frequency():
+    """Given the model's roll natural frequency, the tank's ω_t range is 0.8–1.25 of it and is not widened (a notch
+    far from the roll peak is no anti-roll tank); without it, the generic 0.2–1.5 rad/s."""
+    tank = {e.name: e for e in library(omega_roll=0.5)}["anti_roll_tank"]
+    omega_t = tank.parameters[0]
+    assert omega_t.name == "omega_t" and (omega_t.lower, omega_t.upper) == pytest.approx((0.4, 0.625))
+    assert omega_t.initial == pytest.approx(0.5) and not omega_t.widenable
+    generic = {e.name: e for e in library()}["anti_roll_tank"].parameters[0]
+    assert (generic.lower, generic.upper) == (0.2, 1.5)
+
+
 @pytest.mark.slow
 def test_full_simulated_trial_with_a_tank_is_diagnosed(tmp_path):
     """`seatune simulate` hides an anti-roll tank in the sample scenario; `seatune diagnose` names it and the

@@ -195,11 +195,16 @@ class AntiRollTank(Effect):
     name = "anti_roll_tank"
     signature = ("a passive tank tuned near roll resonance: the roll peak is split in two with a notch near the "
                  "tank frequency, independent of amplitude")
-    parameters = (
-        EffectParameter("omega_t", "rad/s", 0.5, 0.2, 1.5),
-        EffectParameter("zeta_t", "", 0.15, 0.02, 0.8),
-        EffectParameter("mu", "", 0.02, 0.001, 0.2),
-    )
+
+    def __init__(self, omega_roll: float | None = None):
+        """`omega_roll` [rad/s]: the model's roll natural frequency. A passive tank is tuned to it (Den Hartog's
+        optimum ω_t = ω_n/(1 + μ); fill levels keep it there), so ω_t is searched within 0.8–1.25 ω_roll and not
+        widened: a notch far from the roll peak is no anti-roll tank (on the blind bank, a "tank" at 1.3 ω_n with an
+        extreme loading mimicked a clean hull's roll peak). Without it, 0.2–1.5 rad/s."""
+        omega_t = (EffectParameter("omega_t", "rad/s", omega_roll, 0.8 * omega_roll, 1.25 * omega_roll)
+                   if omega_roll else EffectParameter("omega_t", "rad/s", 0.5, 0.2, 1.5))
+        self.parameters = (omega_t, EffectParameter("zeta_t", "", 0.15, 0.02, 0.8),
+                           EffectParameter("mu", "", 0.02, 0.001, 0.2))
 
     def scan_values(self, parts0, bands):
         w = parts0.omega_roll
@@ -358,12 +363,14 @@ def _direction_weights(beta_deg: np.ndarray, grid_deg: np.ndarray) -> np.ndarray
     return _long_crested_weights(grid, np.argsort(grid), step, np.radians(np.asarray(beta_deg, float)), True) * step
 
 
-def library(names=None, moonpool_position=(0.0, 0.0), imu_sensor: str = "imu", vessel=None) -> list[Effect]:
+def library(names=None, moonpool_position=(0.0, 0.0), imu_sensor: str = "imu", vessel=None,
+            omega_roll: float | None = None) -> list[Effect]:
     """The candidate effects by name (all by default); with `vessel`, ranges from its hull (`hull_extent`, the
-    waterplane area)."""
+    waterplane area), with `omega_roll` the tank's from the roll natural frequency."""
     extent = hull_extent(vessel) if vessel is not None else None
     waterplane = waterplane_area(vessel) if vessel is not None else None
-    every = {e.name: e for e in (QuadraticRollDamping(), Moonpool(*moonpool_position, waterplane), AntiRollTank(),
+    every = {e.name: e for e in (QuadraticRollDamping(), Moonpool(*moonpool_position, waterplane),
+                                 AntiRollTank(omega_roll),
                                  ImuLeverArm(imu_sensor, extent), ImuMisalignment(imu_sensor), HsBias(),
                                  MissingSwell(), WaveSpreading())}
     if names is None:

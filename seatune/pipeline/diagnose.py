@@ -61,6 +61,14 @@ def tuned_phi(run, parameters) -> np.ndarray:
     return np.array([float(last.loc[p.name, "mean"]) for p in parameters])
 
 
+def tuned_roll_frequency(vessel, parameters, phi) -> float:
+    """The coupled roll natural frequency [rad/s] at the tuned loading."""
+    from seatune.physics.response import natural_frequencies
+
+    loading = vessel.loading(**{p.name: float(v) for p, v in zip(parameters, phi, strict=True)})
+    return float(natural_frequencies(vessel.db, loading, dofs=(3,))[0, 0])
+
+
 def window_set(run, vessel, channels):
     """The WindowSet of the run's accepted windows with the tune stage's roles."""
     from seatune.diagnosis.model import WindowSet, analysis_mask, welch_grid
@@ -238,12 +246,14 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     missing = [c for c in channels if c not in available]
     if missing:
         raise UserError(str(run.path), "diagnose.channels", f"not among the filtered channels: {', '.join(missing)}")
+    phi_tuned = tuned_phi(run, parameters)
     try:
-        effects = library(settings.effects, moonpool_position=settings.moonpool_position, vessel=vessel)
+        effects = library(settings.effects, moonpool_position=settings.moonpool_position, vessel=vessel,
+                          omega_roll=tuned_roll_frequency(vessel, parameters, phi_tuned))
     except KeyError as err:
         raise UserError(str(run.path), "diagnose.effects", f"unknown effect(s): {err.args[0]}") from None
     data = window_set(run, vessel, channels)
-    diag = Diagnoser(vessel, parameters, data, tuned_phi(run, parameters),
+    diag = Diagnoser(vessel, parameters, data, phi_tuned,
                      hs_rel_std=run.spec.hindcast.uncertainty.hs_rel_std,
                      tp_std_s=run.spec.hindcast.uncertainty.tp_std_s,
                      dir_std_deg=run.spec.hindcast.uncertainty.dir_std_deg,
