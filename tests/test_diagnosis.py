@@ -5,6 +5,8 @@ and the refitted loading moves towards the truth."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -267,6 +269,10 @@ def test_diagnose_writes_the_design_tables(diagnosed):
     assert list(first["effect"]) == ["none", *(e for e in EFFECT)] and (d["step"] <= d["selected"].sum() + 1).all()
     assert d.loc[d["effect"] == "none", "n_params"].item() == 0
     assert np.isfinite(d[["gain_train", "gain_holdout", "gap_before_holdout", "gap_after_holdout"]]).all().all()
+    # the tuned loading, and the untuned parameters with a prior that the run does not give as known, are refitted
+    # (sample: tunes gmt_fs, r44, beta44; knows mass, zcg; the vessel's priors also hold xcg and r55)
+    refit = json.loads(d.loc[d["effect"] == "none", "loading"].item())
+    assert list(refit) == ["gmt_fs", "r44", "beta44", "xcg", "r55"]
     resid = pq.read_table(out / "diagnosis_residuals.parquet").to_pandas()
     assert list(resid.columns) == list(RESIDUAL_UNITS) and resid["used"].any()
     # the sample hides no vessel effect: whatever misfit is left is reported, or put on the sea (the sea estimated

@@ -61,6 +61,23 @@ def tuned_phi(run, parameters) -> np.ndarray:
     return np.array([float(last.loc[p.name, "mean"]) for p in parameters])
 
 
+def diagnosis_parameters(run, vessel) -> tuple[list, np.ndarray]:
+    """The loading the diagnosis refits and where it starts: the tuned parameters at the tune's posterior means, then
+    every other parameter with a prior that identify does not take as known, at the vessel's value. Misfit that an
+    uncertain loading explains is not left for an effect to absorb: on the blind bank, the untuned r55 and xcg drawn
+    from their priors left a pitch misfit that IMU effects and moonpools were named for."""
+    from seatune.pipeline.tune import tuning_parameters
+    from seatune.tuning.interface import Parameter
+
+    tuned = tuning_parameters(run, vessel)
+    fixed = {p.name for p in tuned} | set(run.spec.identify.known)
+    extra = [Parameter(name, float(prior.mean), float(prior.std), *(float(b) for b in prior.bounds))
+             for name, prior in vessel.spec.priors.items() if name not in fixed and prior.bounds is not None
+             and getattr(vessel.spec.loading, name, None) is not None]
+    start = [getattr(vessel.spec.loading, p.name) for p in extra]
+    return tuned + extra, np.r_[tuned_phi(run, tuned), start]
+
+
 def tuned_roll_frequency(vessel, parameters, phi) -> float:
     """The coupled roll natural frequency [rad/s] at the tuned loading."""
     from seatune.physics.response import natural_frequencies
@@ -224,7 +241,6 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     from seatune.diagnosis.select import Diagnoser
     from seatune.io.parquet import write_table
     from seatune.io.rundir import fingerprint, is_fresh
-    from seatune.pipeline.tune import tuning_parameters
 
     settings = run.spec.diagnose
     src = [run.artefact(n) for n in ("windows.parquet", "window_stats.parquet", "window_spectra.parquet",
@@ -239,21 +255,20 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     augmented = run.artefact("augmented_vessel.yaml")
     if not force and is_fresh(outs, fp):
         return {"skipped": True}
-    parameters = tuning_parameters(run, vessel)
+    parameters, phi_start = diagnosis_parameters(run, vessel)
     available = set(pd.read_parquet(src[1], columns=["channel"])["channel"])
     channels = settings.channels or run.spec.tuning.channels or [c.name for c in vessel.channels
                                                                  if c.name in available]
     missing = [c for c in channels if c not in available]
     if missing:
         raise UserError(str(run.path), "diagnose.channels", f"not among the filtered channels: {', '.join(missing)}")
-    phi_tuned = tuned_phi(run, parameters)
     try:
         effects = library(settings.effects, moonpool_position=settings.moonpool_position, vessel=vessel,
-                          omega_roll=tuned_roll_frequency(vessel, parameters, phi_tuned))
+                          omega_roll=tuned_roll_frequency(vessel, parameters, phi_start))
     except KeyError as err:
         raise UserError(str(run.path), "diagnose.effects", f"unknown effect(s): {err.args[0]}") from None
     data = window_set(run, vessel, channels)
-    diag = Diagnoser(vessel, parameters, data, phi_tuned,
+    diag = Diagnoser(vessel, parameters, data, phi_start,
                      hs_rel_std=run.spec.hindcast.uncertainty.hs_rel_std,
                      tp_std_s=run.spec.hindcast.uncertainty.tp_std_s,
                      dir_std_deg=run.spec.hindcast.uncertainty.dir_std_deg,
