@@ -202,7 +202,7 @@ class AntiRollTank(Effect):
         widened: a notch far from the roll peak is no anti-roll tank (on the blind bank, a "tank" at 1.3 ω_n with an
         extreme loading mimicked a clean hull's roll peak). Without it, 0.2–1.5 rad/s."""
         omega_t = (EffectParameter("omega_t", "rad/s", omega_roll, 0.8 * omega_roll, 1.25 * omega_roll)
-                   if omega_roll else EffectParameter("omega_t", "rad/s", 0.5, 0.2, 1.5))
+                   if omega_roll and np.isfinite(omega_roll) else EffectParameter("omega_t", "rad/s", 0.5, 0.2, 1.5))
         self.parameters = (omega_t, EffectParameter("zeta_t", "", 0.15, 0.02, 0.8),
                            EffectParameter("mu", "", 0.02, 0.001, 0.2))
 

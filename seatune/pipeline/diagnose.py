@@ -71,10 +71,14 @@ def diagnosis_parameters(run, vessel) -> tuple[list, np.ndarray]:
 
     tuned = tuning_parameters(run, vessel)
     fixed = {p.name for p in tuned} | set(run.spec.identify.known)
-    extra = [Parameter(name, float(prior.mean), float(prior.std), *(float(b) for b in prior.bounds))
-             for name, prior in vessel.spec.priors.items() if name not in fixed and prior.bounds is not None
-             and getattr(vessel.spec.loading, name, None) is not None]
-    start = [getattr(vessel.spec.loading, p.name) for p in extra]
+    if fixed & {"mass", "displacement"}:  # one quantity, two names
+        fixed |= {"mass", "displacement"}
+    extra = []
+    for name, prior in vessel.spec.priors.items():
+        if name not in fixed and getattr(vessel.spec.loading, name, None) is not None:
+            lo, hi = prior.bounds if prior.bounds is not None else (-np.inf, np.inf)
+            extra.append(Parameter(name, float(prior.mean), float(prior.std), float(lo), float(hi)))
+    start = [float(getattr(vessel.spec.loading, p.name)) for p in extra]
     return tuned + extra, np.r_[tuned_phi(run, tuned), start]
 
 
