@@ -252,7 +252,7 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     from seatune.pipeline.sea import sea_inputs
 
     fp = fingerprint(src + sea_inputs(run) + [run.hindcast_path, run.vessel_path],
-                     {"stage": "diagnose", "diagnose": settings.model_dump(),
+                     {"stage": "diagnose", "diagnose": settings.model_dump(), "known": run.spec.identify.known,
                       "holdout_every": run.spec.tuning.holdout_every,
                       "uncertainty": run.spec.hindcast.uncertainty.model_dump()})
     outs = [run.artefact(n) for n in ("diagnosis.parquet", "diagnosis_residuals.parquet")]
