@@ -316,6 +316,22 @@ def test_too_few_calibration_replicas_for_the_false_alarm_rate_is_one_line_and_e
     assert "diagnose.calibration" in res.stderr and "at least 19" in res.stderr
 
 
+def test_the_stage_line_names_each_step_with_its_own_parameters():
+    """A later step's `fitted` also holds the refitted parameters of the effects named before it (`effect.param`):
+    the stage line gives each step only its own."""
+    from seatune.pipeline.stages import _diagnose_line
+
+    steps = [{"effect": "moonpool", "gain_holdout": 52.04, "false_alarm_p": float("nan"),
+              "fitted": {"omega_p": 1.1512, "zeta_p": 0.08, "area": 36.4}},
+             {"effect": "imu_lever_arm", "gain_holdout": 7.5, "false_alarm_p": 0.05,
+              "fitted": {"dx": -4.04, "dy": 2.0, "dz": -3.0, "moonpool.omega_p": 1.16, "moonpool.area": 35.0}}]
+    line = _diagnose_line({"bands_before": [], "gap_before": 1.92, "gap_after": 0.11, "sigma_before": 0.2,
+                           "sigma_after": 0.05, "named": "moonpool", "steps": steps, "augmented": "a.yaml",
+                           "candidates": 8, "windows": 9, "holdout": 3}, 12.0)
+    assert ("named moonpool (omega_p 1.15, zeta_p 0.08, area 36.4; held-out gain 52.0 nats), then imu_lever_arm "
+            "(dx -4.04, dy 2, dz -3; held-out gain 7.5 nats, false-alarm p 0.05)") in line
+
+
 def test_the_tank_is_searched_near_the_roll_natural_frequency():
     """Given the model's roll natural frequency, the tank's ω_t range is 0.8–1.25 of it and is not widened (a notch
     far from the roll peak is no anti-roll tank); without it, the generic 0.2–1.5 rad/s."""

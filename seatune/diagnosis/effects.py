@@ -73,6 +73,12 @@ class Effect:
         return out
 
 
+def own_parameters_text(fitted: dict) -> str:
+    """"k v, …" of a step's own fitted parameters, without the refitted ones of the effects named before it (which
+    a `Compound` names `effect.parameter`)."""
+    return ", ".join(f"{k} {v:.3g}" for k, v in fitted.items() if "." not in k)
+
+
 class Compound(Effect):
     """Effects named one after another in one model (greedy selection): the given ones start from their fitted
     values and are refitted with the added one. Parameters are named `effect.parameter`; effects that change the

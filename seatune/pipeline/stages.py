@@ -64,13 +64,15 @@ def _tune_line(summary: dict, seconds: float) -> str:
 
 
 def _diagnose_line(s: dict, seconds: float) -> str:
+    from seatune.diagnosis.effects import own_parameters_text
+
     where = "; ".join(s["bands_before"]) or "no band of systematic misfit"
     gap = (f"held-out gap {s['gap_before']:.3f} → {s['gap_after']:.3f}, σ error {100 * s['sigma_before']:.1f} % → "
            f"{100 * s['sigma_after']:.1f} %")
     if s["named"]:
         steps = []
         for step in s["steps"]:
-            fitted = ", ".join(f"{k} {v:.3g}" for k, v in step["fitted"].items() if "." not in k)  # its own
+            fitted = own_parameters_text(step["fitted"])
             p = step["false_alarm_p"]
             tested = f", false-alarm p {p:.2g}" if p == p else ""
             steps.append(f"{step['effect']} ({fitted}; held-out gain {step['gain_holdout']:.1f} nats{tested})")

@@ -9,6 +9,7 @@ import re
 import numpy as np
 import pandas as pd
 
+from seatune.diagnosis.effects import own_parameters_text
 from seatune.diagnosis.select import HOLDOUT_MIN
 from seatune.identification.natural_frequency import primary_natural_frequencies
 from seatune.report import html as H
@@ -499,8 +500,7 @@ def diagnosis_section(inp: ReportInputs) -> str | None:
     chosen = d[d["selected"]]
     row = chosen.iloc[-1] if len(chosen) else d[d["effect"] == "none"].iloc[0]  # the final model
     if len(chosen):
-        own = [", ".join(f"{k} {v:.3g}" for k, v in json.loads(r.fitted).items() if "." not in k)
-               for r in chosen.itertuples()]  # its own parameters, not the refitted ones of those named before
+        own = [own_parameters_text(json.loads(r.fitted)) for r in chosen.itertuples()]
         named = ", then ".join(f"<b>{H.esc(r.effect)}</b> (fitted {H.esc(o)}; held-out gain {r.gain_holdout:.1f} "
                                "nats)" for r, o in zip(chosen.itertuples(), own, strict=True))
         verdict = (f"{named} explain{'s' if len(chosen) == 1 else ''} the misfit; held-out gap in "
