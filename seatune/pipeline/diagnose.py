@@ -67,12 +67,11 @@ def diagnosis_parameters(run, vessel) -> tuple[list, np.ndarray]:
     uncertain loading explains is not left for an effect to absorb: on the blind bank, the untuned r55 and xcg drawn
     from their priors left a pitch misfit that IMU effects and moonpools were named for."""
     from seatune.pipeline.tune import tuning_parameters
+    from seatune.pipeline.vessel import with_mass_aliases
     from seatune.tuning.interface import Parameter
 
     tuned = tuning_parameters(run, vessel)
-    fixed = {p.name for p in tuned} | set(run.spec.identify.known)
-    if fixed & {"mass", "displacement"}:  # one quantity, two names
-        fixed |= {"mass", "displacement"}
+    fixed = with_mass_aliases({p.name for p in tuned} | set(run.spec.identify.known))
     extra = []
     for name, prior in vessel.spec.priors.items():
         if name not in fixed and getattr(vessel.spec.loading, name, None) is not None:
@@ -80,14 +79,6 @@ def diagnosis_parameters(run, vessel) -> tuple[list, np.ndarray]:
             extra.append(Parameter(name, float(prior.mean), float(prior.std), float(lo), float(hi)))
     start = [float(getattr(vessel.spec.loading, p.name)) for p in extra]
     return tuned + extra, np.r_[tuned_phi(run, tuned), start]
-
-
-def tuned_roll_frequency(vessel, parameters, phi) -> float:
-    """The coupled roll natural frequency [rad/s] at the tuned loading."""
-    from seatune.physics.response import natural_frequencies
-
-    loading = vessel.loading(**{p.name: float(v) for p, v in zip(parameters, phi, strict=True)})
-    return float(natural_frequencies(vessel.db, loading, dofs=(3,))[0, 0])
 
 
 def window_set(run, vessel, channels):
@@ -240,7 +231,7 @@ def augmented_vessel_yaml(vessel, diag, path: Path) -> None:
 
 
 def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
-    from seatune.diagnosis.effects import library
+    from seatune.diagnosis.effects import EFFECT_NAMES, library
     from seatune.diagnosis.residuals import describe
     from seatune.diagnosis.select import Diagnoser
     from seatune.io.parquet import write_table
@@ -266,17 +257,19 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     missing = [c for c in channels if c not in available]
     if missing:
         raise UserError(str(run.path), "diagnose.channels", f"not among the filtered channels: {', '.join(missing)}")
-    try:
-        effects = library(settings.effects, moonpool_position=settings.moonpool_position, vessel=vessel,
-                          omega_roll=tuned_roll_frequency(vessel, parameters, phi_start))
-    except KeyError as err:
-        raise UserError(str(run.path), "diagnose.effects", f"unknown effect(s): {err.args[0]}") from None
+    unknown = [n for n in settings.effects or () if n not in EFFECT_NAMES]
+    if unknown:
+        raise UserError(str(run.path), "diagnose.effects", f"unknown effect(s): {', '.join(unknown)}")
     data = window_set(run, vessel, channels)
-    diag = Diagnoser(vessel, parameters, data, phi_start,
-                     hs_rel_std=run.spec.hindcast.uncertainty.hs_rel_std,
-                     tp_std_s=run.spec.hindcast.uncertainty.tp_std_s,
-                     dir_std_deg=run.spec.hindcast.uncertainty.dir_std_deg,
-                     null=null_sea(settings.calibration)).run(effects, max_named=settings.max_effects)
+    diagnoser = Diagnoser(vessel, parameters, data, phi_start,
+                          hs_rel_std=run.spec.hindcast.uncertainty.hs_rel_std,
+                          tp_std_s=run.spec.hindcast.uncertainty.tp_std_s,
+                          dir_std_deg=run.spec.hindcast.uncertainty.dir_std_deg,
+                          null=null_sea(settings.calibration))
+    # the tank's range from the roll mode its scan starts from (the model at the start loading)
+    effects = library(settings.effects, moonpool_position=settings.moonpool_position, vessel=vessel,
+                      omega_roll=diagnoser.model.parts(phi_start).omega_roll)
+    diag = diagnoser.run(effects, max_named=settings.max_effects)
     train = data.roles == "train"
     table = diagnosis_table(diag, effects)
     meta = {"fingerprint": fp}

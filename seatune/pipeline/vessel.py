@@ -143,14 +143,18 @@ def capytaine_files(files: list[str] | str, base: Path) -> list[Path]:
     return out
 
 
+def with_mass_aliases(names) -> set:
+    """`names`, holding both mass and displacement when either is among them (one quantity, two names)."""
+    names = set(names)
+    return names | {"mass", "displacement"} if names & {"mass", "displacement"} else names
+
+
 def open_run_vessel(run) -> VesselModel:
     """The run's vessel with the run YAML's `identify.known` loading values (mass, zcg, … from the loading
     computer) in its base condition for the parameters it does not tune: every stage then models them as known on
     board instead of at the vessel YAML's design values (a KG 0.5 m off the YAML's would otherwise be tuned into
     gmt_fs); a tuned parameter starts from its prior, as tune does."""
-    tuned = set(run.spec.tuning.parameters)
-    if tuned & {"mass", "displacement"}:
-        tuned |= {"mass", "displacement"}
+    tuned = with_mass_aliases(run.spec.tuning.parameters)
     known = {k: v for k, v in run.spec.identify.known.items() if k not in tuned}
     vessel = open_vessel(run.vessel_path)
     try:
