@@ -69,9 +69,9 @@ def test_the_estimator_bias_is_removed(hull):
 
 
 def test_the_loading_spread_is_the_move_of_separate_fits():
-    """`loading_std` of a combined ω_n is |ω(+σ) − ω(−σ)| / 2 of the same window de-biased at the prior moved by
-    ±1σ of its one uncertain parameter (xcg here: it moves heave-pitch coupling), each fitted on its own, and the
-    interval grows by 1.96 · loading_std in quadrature."""
+    """`loading_std` of a combined ω_n is √(½((ω(+σ) − ω)² + (ω(−σ) − ω)²)) of the same window de-biased at the
+    prior moved by ±1σ of its one uncertain parameter (xcg here: it moves heave-pitch coupling), each fitted on
+    its own, and the interval grows by 1.96 · loading_std in quadrature."""
     model = open_vessel(ROOT / "configs" / "vessels" / "sample_osv.yaml")
     window, _ = _window("osv", model)
     base = model.base_loading
@@ -88,7 +88,8 @@ def test_the_loading_spread_is_the_move_of_separate_fits():
     centre, widened = combined(base), combined(base, spread)
     up, down = combined(spread.take([0])), combined(spread.take([1]))
     for dof in DOFS:
-        expected = abs(up[dof]["omega_n"] - down[dof]["omega_n"]) / 2
+        expected = np.sqrt(0.5 * ((up[dof]["omega_n"] - centre[dof]["omega_n"]) ** 2
+                                  + (down[dof]["omega_n"] - centre[dof]["omega_n"]) ** 2))
         assert widened[dof]["loading_std"] == pytest.approx(expected, rel=1e-9, abs=1e-12), dof
         half = np.hypot(0.5 * (centre[dof]["ci_high"] - centre[dof]["ci_low"]), 1.96 * expected)
         assert widened[dof]["ci_high"] - widened[dof]["ci_low"] == pytest.approx(2 * half, rel=1e-9), dof
@@ -127,3 +128,23 @@ def test_the_loading_spread_moves_the_mass_for_a_displacement_prior_and_stays_in
     spread = ident.loading_spread(narrow, base, known=["r44"])
     assert len(spread) == 2 and spread.mass.tolist() == pytest.approx(base.mass[0] + db.rho * np.array([100, -100]))
     assert ident.loading_spread(narrow, base, known=["displacement", "r44"]) is None
+
+
+def test_an_uncertainty_even_in_its_parameter_is_not_lost():
+    """The barge is fore-aft symmetric: its heave mode falls as the COG moves off midship either way (the model's
+    own coupled roots at xcg = ±1 m are equal), so a central difference about xcg = 0 reads no spread. The
+    loading spread of a heave fit keeps it."""
+    model = open_vessel(ROOT / "configs" / "vessels" / "barge.yaml")
+    base = model.base_loading
+    known = [n for n in model.spec.priors if n != "xcg"]
+    spread = ident.loading_spread(model, base, known=known)
+    roots = natural_frequencies(model.db, spread)[:, 0]
+    assert roots[0] == pytest.approx(roots[1], rel=1e-9)  # symmetric: the central difference is zero
+    centre = natural_frequencies(model.db, base)[0, 0]
+    assert centre - roots[0] > 1e-3  # ... yet ±1 m lowers heave by ~0.4 %
+    window, _ = _window("barge", model)
+    nat = natural_frequencies(model.db, base)[0]
+    prior = {d: float(nat[i]) for i, d in enumerate(DOFS)}
+    rows = ident.natural_frequency_rows(model, [window], prior, IdentifySettings(), base, spread)
+    heave = next(r for r in rows if r["window_id"] == "all" and r["dof"] == "Heave")
+    assert heave["loading_std"] > 1e-3

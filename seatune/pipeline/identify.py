@@ -332,8 +332,9 @@ def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str,
 
     That bias is the model's at `loading`, and the true loading is uncertain. With `spread` (`loading_spread`:
     `loading` moved by ±1σ of each uncertain parameter, in pairs), the de-biasing is repeated at each of those
-    loadings and the combined ω_n's interval widened by 1.96 · `loading_std`, the linearised spread
-    √Σ_j ((ω(+σ_j) − ω(−σ_j)) / 2)². Every window shares the loading, so this term does not average down."""
+    loadings and the combined ω_n's interval widened by 1.96 · `loading_std` = √Σ_j ½((ω(+σ_j) − ω)² + (ω(−σ_j) − ω)²),
+    which, unlike a central difference, keeps an effect even in the parameter (xcg on a symmetric hull). Every
+    window shares the loading, so this term does not average down."""
     from seatune.identification.natural_frequency import spectrum_peak
     from seatune.identification.rao_estimation import chi2_interval, energetic_band
     from seatune.physics.modes import natural_frequencies
@@ -466,8 +467,8 @@ def _with_loading_std(combined: dict, fits: list[dict], dof: str, prior: float) 
                      "ci_high": r["ci_high"] + b[i] - r["omega_n"]} if np.isfinite(b[i]) else r
                 for r, b in zip(fits, by, strict=True)]
         moved.append(_combine(rows, dof, combined["method"], prior)["omega_n"])
-    moved = np.asarray(moved).reshape(-1, 2)
-    return _widened(combined, "loading_std", float(np.sqrt(np.sum((0.5 * (moved[:, 0] - moved[:, 1])) ** 2))))
+    dev = np.asarray(moved).reshape(-1, 2) - combined["omega_n"]  # not (ω₊ − ω₋)/2: a symmetric effect would vanish
+    return _widened(combined, "loading_std", float(np.sqrt(np.sum(np.mean(dev ** 2, axis=1)))))
 
 
 def _widened(row: dict, name: str, std: float) -> dict:
