@@ -133,7 +133,7 @@ def test_the_loading_spread_moves_the_mass_for_a_displacement_prior_and_stays_in
 def test_an_uncertainty_even_in_its_parameter_is_not_lost():
     """The barge is fore-aft symmetric: its heave mode falls as the COG moves off midship either way (the model's
     own coupled roots at xcg = ±1 m are equal), so a central difference about xcg = 0 reads no spread. The
-    loading spread of a heave fit keeps it."""
+    loading spread of a heave fit and the prior draws' spread of the heave mode both keep it."""
     model = open_vessel(ROOT / "configs" / "vessels" / "barge.yaml")
     base = model.base_loading
     known = [n for n in model.spec.priors if n != "xcg"]
@@ -148,3 +148,7 @@ def test_an_uncertainty_even_in_its_parameter_is_not_lost():
     rows = ident.natural_frequency_rows(model, [window], prior, IdentifySettings(), base, spread)
     heave = next(r for r in rows if r["window_id"] == "all" and r["dof"] == "Heave")
     assert heave["loading_std"] > 1e-3
+    draws = ident.prior_draws(model, base, known=known, n=512)
+    assert len(draws) == 512 and draws.xcg.min() >= -3.0 and draws.xcg.max() <= 3.0  # the prior's bounds
+    assert draws.xcg.mean() == pytest.approx(0.0, abs=0.01) and draws.xcg.std() == pytest.approx(1.0, rel=0.05)
+    assert natural_frequencies(model.db, draws)[:, 0].std() > 1e-3

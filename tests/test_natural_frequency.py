@@ -308,3 +308,45 @@ def test_fit_sdof_unweighted_moves_for_tiny_amplitudes():
     clean = nf.sdof_amplitude(W_FIT, WN, ZETA, 3e-9)
     fit = nf.fit_sdof(W_FIT, clean, omega_guess=0.9 * WN)
     assert fit.omega_n == pytest.approx(WN, rel=1e-6)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# ω_n given the loading prior (mode_posterior)
+# ---------------------------------------------------------------------------------------------------------
+
+
+def _normal_draws(n: int, seed: int = 0) -> np.ndarray:
+    return stats.norm.ppf(stats.qmc.Sobol(1, seed=seed).random(n)[:, 0])
+
+
+def test_mode_posterior_is_the_conjugate_normal_posterior_for_a_linear_mode():
+    """ω = a + bθ with θ ~ N(0, 1) and a measurement m ± s: the textbook conjugate posterior of a linear-Gaussian
+    model, mean (a/b² + m/s²)/(1/b² + 1/s²), variance 1/(1/b² + 1/s²)."""
+    a, b, m, s = 0.80, 0.03, 0.85, 0.02
+    omega = (a + b * _normal_draws(2 ** 16))[:, None]
+    post = nf.mode_posterior(omega, np.array([m]), np.array([s]), model_rel_std=0.0)
+    precision = 1 / b ** 2 + 1 / s ** 2
+    assert post.omega[0] == pytest.approx((a / b ** 2 + m / s ** 2) / precision, rel=2e-4)
+    assert post.std[0] == pytest.approx(precision ** -0.5, rel=5e-3)
+    assert post.prior_mean[0] == pytest.approx(a, rel=1e-4) and post.prior_std[0] == pytest.approx(b, rel=1e-3)
+
+
+def test_mode_posterior_of_one_draw_fuses_the_model_form_error_with_the_measurement():
+    """One loading (nothing uncertain): the model's ω_n ± f·ω_n and the measurement combine by inverse variance."""
+    w0, f, m, s = 1.02, 0.01, 1.05, 0.02
+    post = nf.mode_posterior(np.array([[w0, 0.5]]), np.array([m, np.nan]), np.array([s, np.nan]), model_rel_std=f)
+    v = (f * w0) ** 2
+    assert post.omega[0] == pytest.approx((w0 / v + m / s ** 2) / (1 / v + 1 / s ** 2), rel=1e-12)
+    assert post.std[0] == pytest.approx((1 / v + 1 / s ** 2) ** -0.5, rel=1e-9)
+    assert post.omega[1] == 0.5 and post.std[1] == pytest.approx(0.005)  # unmeasured: the model, its form error
+
+
+def test_mode_posterior_moves_an_unmeasured_mode_through_the_shared_loading():
+    """Two modes of one parameter, ω₁ = a + bθ and ω₂ = c + dθ, only the first measured: the second's posterior
+    is c + d·E[θ | m] with E[θ | m] = (m − a)·b / (b² + s²) (conditioning a bivariate normal)."""
+    a, b, c, d, m, s = 1.0, 0.02, 0.9, -0.03, 1.03, 0.01
+    theta = _normal_draws(2 ** 16, seed=1)
+    omega = np.stack([a + b * theta, c + d * theta], axis=1)
+    post = nf.mode_posterior(omega, np.array([m, np.nan]), np.array([s, np.nan]), model_rel_std=0.0)
+    assert post.omega[1] == pytest.approx(c + d * (m - a) * b / (b ** 2 + s ** 2), rel=2e-4)
+    assert post.effective_draws < 2 ** 16  # the measurement weighted the draws

@@ -28,13 +28,17 @@ def _truth(trial, category, effects, r44=8.0, roll=0.5):
             "hindcast": {"layout": "bulk", "missing_swell": category == "clean"}, "windows": [{}, {}, {}]}
 
 
-def _artefacts(named, r44_mean, r44_std, roll=None):
+def _artefacts(named, r44_mean, r44_std, roll=None, heave_posterior=None):
     history = pd.DataFrame({"update": [0, 0, 2, 2], "parameter": ["r44", "gmt_fs", "r44", "gmt_fs"],
                             "mean": [8.4, 0.2, r44_mean, 0.21], "std": [0.6, 0.15, r44_std, 0.1]})
     nf = pd.DataFrame({"dof": ["Heave", "Roll", "Pitch"], "method": "admittance_peak_sdof", "window_id": "all",
                        "omega_n": [0.91, np.nan if roll is None else roll, 0.95], "ci_low": [0.89, np.nan, 0.94],
                        "ci_high": [0.93, np.nan, 0.96], "derived": None,
                        "reason": ["", "not identified: no wave energy" if roll is None else "", ""]})
+    if heave_posterior is not None:  # identify's measurement combined with the loading prior
+        nf = pd.concat([nf, pd.DataFrame({"dof": ["Heave"], "method": "posterior", "window_id": "all",
+                                          "omega_n": [heave_posterior], "ci_low": [0.89], "ci_high": [0.91],
+                                          "derived": None, "reason": None})], ignore_index=True)
     diag = pd.DataFrame({"effect": ["none", "moonpool", "missing_swell"],
                          "selected": [False, "moonpool" in named, "missing_swell" in named]})
     val = pd.DataFrame({"role": ["train", "holdout"], "measured": [1.0, 1.0], "predicted_prior": [1.5, 2.0],
@@ -47,8 +51,8 @@ def test_a_trial_row_and_the_bank_figures_by_hand():
                         tuned_modes={"roll": 0.51}, reference={"r44": (8.1, 0.2), "gmt_fs": (0.2, 0.1)}),
             score_trial(_truth("b", "clean", []), _artefacts({"moonpool"}, 8.5, 0.2), {"roll": 0.502},
                         reference={"r44": (8.0, 0.2), "gmt_fs": (0.2, 0.1)}),
-            score_trial(_truth("c", "moonpool", ["moonpool"]), _artefacts({"moonpool"}, 8.0, 0.1, roll=0.49),
-                        {"roll": 0.5})]
+            score_trial(_truth("c", "moonpool", ["moonpool"]),
+                        _artefacts({"moonpool"}, 8.0, 0.1, roll=0.49, heave_posterior=0.901), {"roll": 0.5})]
     a, b, c = rows
     assert (a["verdict"], b["verdict"], c["verdict"]) == ("correct_none", "false_alarm", "hit")
     assert a["named_sea_side"] == "missing_swell" and a["named_effects"] == "none"
@@ -56,6 +60,9 @@ def test_a_trial_row_and_the_bank_figures_by_hand():
     assert not b["r44_within_2sigma"]  # 0.5 m off with σ 0.2 m
     assert a["omega_roll_reported"] is False and a["omega_roll_reason"] == "not identified: no wave energy"
     assert c["omega_roll_rel_error"] == pytest.approx(-0.02)
+    assert c["omega_heave_rel_error"] == pytest.approx(0.001 / 0.9)  # the posterior is what identify reports
+    assert c["omega_heave_measured_rel_error"] == pytest.approx(0.01 / 0.9)  # the admittance fit alone
+    assert c["omega_heave_truth_in_ci"] and a["omega_heave_rel_error"] == pytest.approx(0.01 / 0.9)
     assert a["heldout_error_prior"] == pytest.approx(np.log(2.0)) and a["heldout_error_tuned"] == pytest.approx(1.0)
     assert b["omega_roll_model_rel_error"] == pytest.approx(0.004)
     assert a["omega_roll_tuned_model_rel_error"] == pytest.approx(0.02)

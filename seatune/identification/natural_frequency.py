@@ -13,6 +13,7 @@ Contents
   with 95 % confidence intervals (:class:`SdofFit`).
 * :func:`spectrum_peak` — peak of a response spectrum with sub-bin refinement.
 * :func:`peak_to_natural` — damped-peak → undamped ω_n for displacement / velocity / acceleration RAOs.
+* :func:`mode_posterior` — the measured ω_n combined with the coupled modes over the loading prior.
 * Closed forms (all plain floats or numpy arrays, SI, mass in kg — the digest's "∇ [t]" is a mass, §1.4):
   :func:`heave_natural_frequency`, :func:`displacement_from_heave`, :func:`roll_natural_frequency`,
   :func:`r44_from_roll`, :func:`gm_from_roll`; and first-order uncertainty propagation
@@ -54,6 +55,7 @@ __all__ = [
     "G",
     "RHO",
     "Derived",
+    "ModePosterior",
     "SdofFit",
     "SpectrumPeak",
     "displacement_from_heave",
@@ -62,6 +64,7 @@ __all__ = [
     "gm_from_roll",
     "gm_from_roll_u",
     "heave_natural_frequency",
+    "mode_posterior",
     "peak_in_range",
     "peak_to_natural",
     "r44_from_roll",
@@ -75,6 +78,12 @@ RHO = 1025.0  # sea-water density [kg/m³]; de Jong never states ρ, 1025 reprod
 G = 9.81  # gravity [m/s²] (digest §0)
 
 AddedMass = float | Callable[[float], float]
+MODES_SHIFTED_BY = {"anti_roll_tank": "Roll", "moonpool": "Heave"}  # vessel effects whose peak is not the bare mode
+
+
+def shifted_modes(effects) -> set[str]:
+    """The DOFs whose measured peak a declared vessel effect (vessel YAML `effects`) moves off the bare mode."""
+    return {MODES_SHIFTED_BY[e["kind"]] for e in effects if e["kind"] in MODES_SHIFTED_BY}
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -684,10 +693,53 @@ def gm_from_roll_u(
     return _derived(gm, partials, {"omega4": std_omega4, "mass": std_mass, "r44": std_r44, "a44": std_a44})
 
 
-def primary_natural_frequencies(nf: pd.DataFrame) -> pd.DataFrame:
-    """One combined estimate per DOF of natural_frequencies.parquet (window 'all', not a derived row): the
-    admittance SDOF fit where there is one, a value before a reason it has none; indexed by DOF."""
+class ModePosterior(NamedTuple):
+    """Natural frequencies given the loading prior and the measured ω_n, per DOF (arrays of the DOFs)."""
+
+    omega: np.ndarray  # posterior mean [rad/s]
+    std: np.ndarray  # posterior std [rad/s]
+    prior_mean: np.ndarray  # the model's ω_n over the loading prior [rad/s]
+    prior_std: np.ndarray  # its spread, with the model-form error [rad/s]
+    effective_draws: float  # Kish's effective sample size of the prior draws after weighting
+
+
+def mode_posterior(model_omega: np.ndarray, measured: np.ndarray, measured_std: np.ndarray,
+                   model_rel_std: float) -> ModePosterior:
+    """ω_n of each DOF given the coupled modes `model_omega` (n draws of the loading prior × DOFs) and the measured
+    ω_n ± `measured_std` (NaN where a DOF has none), the model form off by N(0, `model_rel_std`) relative.
+
+    Given draw i the true ω_n is N(ω_i, (f ω_i)²) a priori, so the measurement fuses with it in closed form; the
+    draws are weighted by the likelihood of every measured DOF at once (they share the loading), and the
+    posterior is that Gaussian mixture's mean and std. The spread is not linearised: a symmetric hull's heave
+    falls with |xcg − LCF| either way, which a central difference about the prior mean reads as zero."""
+    model_omega = np.asarray(model_omega, float)
+    measured, s2 = np.asarray(measured, float), np.asarray(measured_std, float) ** 2
+    have = np.isfinite(measured) & np.isfinite(s2) & (s2 > 0)
+    v_model = (model_rel_std * model_omega) ** 2  # (n, d)
+    total = np.where(have, s2, 0.0) + v_model
+    resid = np.where(have, measured - model_omega, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log_like = np.where(have, -0.5 * (resid ** 2 / total + np.log(total)), 0.0).sum(axis=1)
+        gain = np.where(have, v_model / total, 0.0)  # Kalman gain of the measurement on draw i's ω_n
+    w = np.exp(log_like - log_like.max())
+    w /= w.sum()
+    mu = model_omega + gain * resid
+    var = (1.0 - gain) * v_model
+    mean = w @ mu
+    std = np.sqrt(np.maximum(w @ (var + mu ** 2) - mean ** 2, 0.0))
+    prior_mean = model_omega.mean(axis=0)
+    prior_std = np.sqrt(model_omega.var(axis=0) + np.mean(v_model, axis=0))
+    return ModePosterior(mean, std, prior_mean, prior_std, float(1.0 / np.sum(w ** 2)))
+
+
+def primary_natural_frequencies(nf: pd.DataFrame, measured_only: bool = False) -> pd.DataFrame:
+    """One combined estimate per DOF of natural_frequencies.parquet (window 'all', not a derived row), indexed by
+    DOF: the posterior with the loading prior, else the admittance SDOF fit, else the response-spectrum peak; a
+    value before a reason it has none. `measured_only`: without the posterior (for what takes the loading prior
+    itself — tune, the derived loading parameters — and must not count it twice)."""
     rows = nf[(nf["window_id"] == "all") & nf["derived"].isna()] if "derived" in nf else nf[nf["window_id"] == "all"]
-    rows = rows.assign(_pref=(rows["method"] != "admittance_peak_sdof").astype(int)
-                       + 2 * rows["omega_n"].isna().astype(int))  # a value before a reason it has none
+    if measured_only:
+        rows = rows[rows["method"] != "posterior"]
+    rank = rows["method"].map({"posterior": 0, "admittance_peak_sdof": 1}).fillna(2)
+    rows = rows.assign(_pref=rank + 3 * rows["omega_n"].isna().astype(int))  # a value before a reason it has none
     return rows.sort_values("_pref", kind="stable").drop_duplicates("dof").drop(columns="_pref").set_index("dof")

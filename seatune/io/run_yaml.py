@@ -157,6 +157,8 @@ class IdentifySettings(Strict):
     hs_bin_m: PositiveFloat = 1.0  # aggregation Hs bins
     low_frequency_share: Annotated[float, Field(gt=0, lt=1)] = 0.25  # missing-swell flag threshold
     debias_modes: bool = True  # scale each ω_n fit by the same fit's bias on the prior model's own spectrum
+    mode_posterior: bool = True  # also each ω_n combined with the coupled modes over the loading prior
+    mode_model_rel_std: Annotated[float, Field(ge=0)] = 0.01  # model-form error of a coupled ω_n (BEM A, C)
     known: dict[str, float] = {}  # loading values known on board (loading computer), used for derived parameters
 
     @field_validator("known")

@@ -334,11 +334,10 @@ def key_figures(run_dir: Path) -> tuple[dict, dict]:
             units[f"heldout_error_{col}"] = ""
     nat = run_dir / "natural_frequencies.parquet"
     if nat.is_file():
-        n = pd.read_parquet(nat)
-        n = n[(n["window_id"] == "all") & n["derived"].isna()]
-        for dof, g in n.groupby("dof", sort=False):  # the first method listed per DOF (identify's primary)
-            found = g["omega_n"].dropna()
-            row[f"omega_n_{dof.lower()}"] = float(found.iloc[0]) if len(found) else np.nan
+        from seatune.identification.natural_frequency import primary_natural_frequencies
+
+        for dof, r in primary_natural_frequencies(pd.read_parquet(nat)).iterrows():
+            row[f"omega_n_{dof.lower()}"] = float(r["omega_n"])
             units[f"omega_n_{dof.lower()}"] = "rad/s"
     return row, units
 

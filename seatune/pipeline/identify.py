@@ -32,7 +32,7 @@ NF_UNITS = {"dof": "", "method": "", "window_id": "", "omega_n": "rad/s", "ci_lo
             "derived_value": "per row; the unit named in `derived`",
             "derived_std": "per row; the unit named in `derived`",
             "reason": "text", "estimator_bias": "dimensionless", "tp_std": "rad/s", "sea_std": "rad/s",
-            "loading_std": "rad/s"}
+            "loading_std": "rad/s", "prior_std": "rad/s"}
 DOF_INDEX = {"Heave": 2, "Roll": 3, "Pitch": 4}
 
 
@@ -431,21 +431,28 @@ def with_sea_spread(rows: list[dict], model, per_window: list[dict], prior_omega
     return out
 
 
-def loading_spread(model, center, known=()):
-    """`center` moved by +1σ and −1σ (clipped to the bounds, and the mass to the database's drafts) of each vessel
-    prior not in `known`, in pairs: a Loading of 2n rows, or None without such priors."""
-    from seatune.physics.loading import PARAMETERS, Loading
-
+def uncertain_priors(model, known=()) -> dict[str, tuple[float, float, float]]:
+    """{Loading field: (std, lower, upper)} of each vessel prior not in `known`, in the Loading's units (a
+    displacement prior moves the mass; the mass stays within the database's drafts)."""
     rho = model.db.rho
     known = {"mass" if k == "displacement" else k for k in known}
-    steps = {}  # parameter → (std, lower, upper) in the Loading's units (a displacement prior moves the mass)
+    out = {}
     for name, p in model.spec.priors.items():
         scale, name = (rho, "mass") if name == "displacement" else (1.0, name)
         lo, hi = (scale * b for b in p.bounds) if p.bounds is not None else (-np.inf, np.inf)
-        if name == "mass":  # within the database's drafts
+        if name == "mass":
             lo, hi = max(lo, rho * model.db.disp_volume[0]), min(hi, rho * model.db.disp_volume[-1])
         if name not in known:
-            steps[name] = (scale * p.std, lo, hi)
+            out[name] = (scale * p.std, lo, hi)
+    return out
+
+
+def loading_spread(model, center, known=()):
+    """`center` moved by +1σ and −1σ (clipped to the bounds) of each vessel prior not in `known`, in pairs: a
+    Loading of 2n rows, or None without such priors."""
+    from seatune.physics.loading import PARAMETERS, Loading
+
+    steps = uncertain_priors(model, known)
     if not steps:
         return None
     values = {n: np.repeat(getattr(center, n), 2 * len(steps)) for n in steps}
@@ -453,6 +460,62 @@ def loading_spread(model, center, known=()):
         values[n][2 * j: 2 * j + 2] = np.clip(values[n][2 * j] + np.array([1.0, -1.0]) * std, lo, hi)
     base = {p: getattr(center, p) for p in PARAMETERS}
     return Loading(**(base | values))
+
+
+def prior_draws(model, center, known=(), n: int = 1024, seed: int = 0):
+    """`n` draws of the loading prior: each vessel prior not in `known` normal about `center`'s value with the
+    prior's std, truncated to its bounds (scrambled Sobol points, so the spread is smooth in n); a Loading of n
+    rows, or None without such priors."""
+    from scipy.stats import qmc, truncnorm
+
+    from seatune.physics.loading import PARAMETERS, Loading
+
+    steps = uncertain_priors(model, known)
+    if not steps:
+        return None
+    u = qmc.Sobol(len(steps), seed=seed).random(n)
+    values = {}
+    for j, (name, (std, lo, hi)) in enumerate(steps.items()):
+        mean = float(getattr(center, name)[0])
+        values[name] = truncnorm.ppf(u[:, j], (lo - mean) / std, (hi - mean) / std, loc=mean, scale=std)
+    base = {p: np.repeat(getattr(center, p)[:1], n) for p in PARAMETERS}
+    return Loading(**(base | values))
+
+
+def posterior_rows(model, rows: list[dict], center, known, settings, shifted=()) -> list[dict]:
+    """Per DOF with a combined admittance ω_n (and not moved off the bare mode by a declared effect, `shifted`):
+    that ω_n combined with the coupled modes over the loading prior (`identification.natural_frequency.
+    mode_posterior`), as a row of method "posterior". The measurement's own interval is kept in its row; this one
+    is the best estimate given what the vessel YAML and `identify.known` say about the loading."""
+    from scipy.stats import norm
+
+    from seatune.identification.natural_frequency import mode_posterior
+    from seatune.physics.modes import natural_frequencies
+
+    dofs = ("Heave", "Roll", "Pitch")
+    measured = {r["dof"]: r for r in rows if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof"
+                and np.isfinite(r["omega_n"]) and r["dof"] not in shifted}
+    if not measured:
+        return []
+    draws = prior_draws(model, center, known)
+    model_omega = natural_frequencies(model.db, draws if draws is not None else center)
+    z = norm.ppf(0.5 + settings.confidence / 2)
+    m = np.array([measured[d]["omega_n"] if d in measured else np.nan for d in dofs])
+    s = np.array([(measured[d]["ci_high"] - measured[d]["ci_low"]) / (2 * z) if d in measured else np.nan
+                  for d in dofs])
+    post = mode_posterior(model_omega, m, s, settings.mode_model_rel_std)
+    out = []
+    for i, dof in enumerate(dofs):
+        if dof not in measured:
+            continue
+        z_prior = (m[i] - post.prior_mean[i]) / np.hypot(s[i], post.prior_std[i])
+        note = (f"the measurement lies {z_prior:+.1f}σ from the model over the loading prior "
+                f"({post.prior_mean[i]:.3f} ± {post.prior_std[i]:.3f} rad/s)") if abs(z_prior) > 3 else None
+        out.append({"dof": dof, "method": "posterior", "window_id": "all", "omega_n": float(post.omega[i]),
+                    "ci_low": float(post.omega[i] - z * post.std[i]), "ci_high": float(post.omega[i] + z * post.std[i]),
+                    "zeta": measured[dof]["zeta"], "model_prior": measured[dof]["model_prior"],
+                    "prior_std": float(post.prior_std[i]), "reason": note})
+    return out
 
 
 def _with_loading_std(combined: dict, fits: list[dict], dof: str, prior: float) -> dict:
@@ -685,6 +748,10 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
     rows = natural_frequency_rows(model, per_window, prior_omega, settings, center,
                                   loading_spread(model, known, settings.known) if center is not None else None)
     rows = with_sea_spread(rows, model, per_window, prior_omega, settings, center)
+    if settings.mode_posterior:
+        from seatune.identification.natural_frequency import shifted_modes
+
+        rows += posterior_rows(model, rows, known, settings.known, settings, shifted_modes(model.spec.effects))
     rows += derived_parameters(model, known, rows)
     nat = pd.DataFrame(rows, columns=list(NF_UNITS))
     write_table(raos, out_r, RAO_UNITS, {"fingerprint": fp})
@@ -692,8 +759,10 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
     combined = nat[(nat["window_id"] == "all") & nat["derived"].isna() & (nat["method"] == "admittance_peak_sdof")]
     omega_n = dict(zip(combined["dof"], combined["omega_n"], strict=True))
     not_identified = {r.dof: r.reason for r in combined.itertuples() if not np.isfinite(r.omega_n)}
+    post = nat[nat["method"] == "posterior"]
+    posterior = dict(zip(post["dof"], post["omega_n"], strict=True))
     return {"skipped": False, "windows": int(windows["accepted"].sum()),
             "low_confidence": sum(w["low_confidence"] for w in per_window),
             "channels": int(raos["channel"].nunique()), "omega_n": omega_n, "prior_omega_n": prior_omega,
-            "not_identified": not_identified,
+            "not_identified": not_identified, "posterior_omega_n": posterior,
             "roll_omega_n": omega_n.get("Roll", float("nan")), "prior_roll_omega_n": prior_omega["Roll"]}

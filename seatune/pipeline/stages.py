@@ -37,11 +37,15 @@ def _line(stage: str, summary: dict, seconds: float) -> str:
     if stage == "filter":
         return (f"filter: {summary['windows']} windows × {summary['channels']} channels, median cutoff "
                 f"{summary['median_cutoff_hz']:.2f} Hz ({seconds:.0f} s)")
-    nat = ", ".join(f"{dof.lower()} {om:.3f} (prior {summary['prior_omega_n'][dof]:.3f})" if om == om
+    post = summary.get("posterior_omega_n", {})
+    nat = ", ".join(f"{dof.lower()} {om:.3f}" + (f" → {post[dof]:.3f}" if dof in post else "")
+                    + f" (model {summary['prior_omega_n'][dof]:.3f})" if om == om
                     else f"{dof.lower()} {summary.get('not_identified', {}).get(dof, 'not identified')}"
                     for dof, om in summary["omega_n"].items()) or "none identified"
+    heading = "natural frequencies [rad/s], measured → with the loading prior" if post else \
+        "natural frequencies [rad/s]"
     return (f"identify: RAOs of {summary['channels']} channels in {summary['windows']} windows "
-            f"({summary['low_confidence']} low-confidence); natural frequencies [rad/s]: {nat} ({seconds:.0f} s)")
+            f"({summary['low_confidence']} low-confidence); {heading}: {nat} ({seconds:.0f} s)")
 
 
 def _sea_line(s: dict, seconds: float) -> str:

@@ -186,9 +186,6 @@ def window_inputs(run, vessel, windows, stats, spectra, motions, hc, power, name
     return out
 
 
-MODES_SHIFTED_BY = {"anti_roll_tank": "Roll", "moonpool": "Heave"}  # vessel effects whose peak is not the bare mode
-
-
 def mode_inputs(run, vessel, parameters):
     """identify's natural frequencies (window 'all', per DOF with a value) as one sea-independent observation:
     z = ω_n, variance = (CI half-width / z_conf)², predicted by the coupled modes of the loading. σ̂ alone leaves
@@ -196,15 +193,15 @@ def mode_inputs(run, vessel, parameters):
     ω_n pins the ridge. None without natural_frequencies.parquet or a mode with a finite interval."""
     from scipy.stats import norm
 
-    from seatune.identification.natural_frequency import primary_natural_frequencies
+    from seatune.identification.natural_frequency import primary_natural_frequencies, shifted_modes
     from seatune.tuning.forward import ModeFrequencies
     from seatune.tuning.interface import Observation, SeaState
 
     path = run.artefact("natural_frequencies.parquet")
     if not path.exists():
         return None
-    best = primary_natural_frequencies(pd.read_parquet(path))
-    shifted = {MODES_SHIFTED_BY[e["kind"]] for e in vessel.spec.effects if e["kind"] in MODES_SHIFTED_BY}
+    best = primary_natural_frequencies(pd.read_parquet(path), measured_only=True)  # tune holds the prior itself
+    shifted = shifted_modes(vessel.spec.effects)
     z_conf = norm.ppf(0.5 + run.spec.identify.confidence / 2)
     half = (best["ci_high"] - best["ci_low"]) / 2
     ok = np.isfinite(best["omega_n"]) & np.isfinite(half) & (half > 0) & ~best.index.isin(list(shifted))

@@ -97,7 +97,8 @@ def summary_section(inp: ReportInputs, row: dict, units: dict[str, str]) -> str:
         r = best.loc["Roll"]
         tiles.append(("roll natural frequency", f"{r['omega_n']:.3f} rad/s",
                       f"95 % [{r['ci_low']:.3f}, {r['ci_high']:.3f}]; prior model {r['model_prior']:.3f} "
-                      f"(T = {2 * np.pi / r['omega_n']:.1f} s)"))
+                      f"(T = {2 * np.pi / r['omega_n']:.1f} s)"
+                      + ("; measured, with the loading prior" if r["method"] == "posterior" else "")))
     if row.get("backend"):
         tiles.append(("tuning backend", row["backend"].upper(),
                       f"{row['train_windows']} update(s), {row['holdout_windows']} held-out window(s)"))
@@ -330,7 +331,7 @@ def natural_frequencies_section(inp: ReportInputs, tuned: dict[str, float] | Non
                     "(diamonds), against the model with the prior loading (blue dashed) and the tuned loading "
                     "(orange).",
                     "natural frequencies")
-    best = primary_natural_frequencies(nf)
+    best = primary_natural_frequencies(nf, measured_only=True)
     rows = []
     for dof in DOFS:
         if dof not in best.index:
@@ -350,6 +351,17 @@ def natural_frequencies_section(inp: ReportInputs, tuned: dict[str, float] | Non
                                       "(roots of det(C − ω²(M + A(ω))): roll turns about its roll centre, pitch about "
                                       "its pitch centre; ζ: damping ratio of the SDOF fit)",
                     formats={"measured vs prior": _pct, "measured vs tuned": _pct}, digits=4)
+    post = nf[(nf["window_id"] == "all") & (nf["method"] == "posterior")]
+    if len(post):
+        p = pd.DataFrame({"DOF": post["dof"].to_numpy(), "ω_n": post["omega_n"].to_numpy(),
+                          "95 % interval": [f"{lo:.3f} – {hi:.3f}" for lo, hi in zip(post["ci_low"], post["ci_high"],
+                                                                                  strict=True)],
+                          "model spread over the prior": post["prior_std"].to_numpy(),
+                          "note": post["reason"].fillna("").to_numpy()})
+        body += H.table(p, {"ω_n": "rad/s", "95 % interval": "rad/s", "model spread over the prior": "rad/s"},
+                        caption="Natural frequencies with the loading prior: each measured ω_n combined with the "
+                                "coupled modes over the vessel's loading priors (identify.known held, with "
+                                "identify.mode_model_rel_std): the best estimate before tuning", digits=4)
     derived = derived_values(nf)
     if derived:
         d = pd.DataFrame([{"derived from ω_n": label, "value": v, "std": s, "unit": u}

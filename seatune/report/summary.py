@@ -79,13 +79,16 @@ def key_figures(inp: ReportInputs) -> tuple[dict, dict[str, str]]:
                  "windows_low_confidence": int(inp.raos.loc[(inp.raos["scope"] == "window")
                                                             & inp.raos["low_confidence"], "window_id"].nunique())}
     units = {k: "" for k in row} | {"hours_logged": "h", "accepted_minutes": "min"}
-    best = primary_natural_frequencies(inp.natural_frequencies)
+    best = primary_natural_frequencies(inp.natural_frequencies)  # with the loading prior where identify has it
+    measured = primary_natural_frequencies(inp.natural_frequencies, measured_only=True)
     for dof in DOFS:
         key = f"omega_n_{dof.lower()}"
         r = best.loc[dof] if dof in best.index else None
         for suffix, col in (("", "omega_n"), ("_ci_low", "ci_low"), ("_ci_high", "ci_high"), ("_prior", "model_prior")):
             row[key + suffix] = float(r[col]) if r is not None else np.nan
             units[key + suffix] = "rad/s"
+        row[key + "_measured"] = float(measured.loc[dof, "omega_n"]) if dof in measured.index else np.nan
+        units[key + "_measured"] = "rad/s"
         row[key + "_tuned"] = float((inp.tuned_omega_n or {}).get(dof, np.nan))
         units[key + "_tuned"] = "rad/s"
     derived = derived_values(inp.natural_frequencies)
