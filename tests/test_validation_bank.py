@@ -46,6 +46,16 @@ def _artefacts(named, r44_mean, r44_std, roll=None, heave_posterior=None):
     return {"tuning_history": history, "natural_frequencies": nf, "diagnosis": diag, "validation": val}
 
 
+def test_a_mode_the_generator_did_not_label_is_not_scored_as_a_miss():
+    """A truth without a heave root (the generator could not label it) leaves the trial out of heave's 2 % rate."""
+    labelled = _truth("a", "clean", [])
+    unlabelled = _truth("b", "clean", []) | {"natural_frequencies": {"roll": 0.5, "pitch": 0.95}}
+    rows = [score_trial(t, _artefacts(set(), 8.0, 0.1, roll=0.5), {"roll": 0.5}) for t in (labelled, unlabelled)]
+    m = bank_metrics(pd.DataFrame(rows)).set_index(["metric", "group"])
+    assert m.loc[("omega_within_2pct", "heave"), "n"] == 1 and m.loc[("omega_within_2pct", "heave"), "value"] == 1.0
+    assert m.loc[("omega_within_2pct", "pitch"), "n"] == 2
+
+
 def test_a_trial_row_and_the_bank_figures_by_hand():
     rows = [score_trial(_truth("a", "clean", []), _artefacts({"missing_swell"}, 8.2, 0.15), {"roll": 0.5},
                         tuned_modes={"roll": 0.51}, reference={"r44": (8.1, 0.2), "gmt_fs": (0.2, 0.1)}),

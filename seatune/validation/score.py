@@ -275,7 +275,7 @@ def bank_metrics(summary: pd.DataFrame) -> pd.DataFrame:
         add("omega_value_or_reason", d, *_rate(ok[f"omega_{d}_reported"] | (ok[f"omega_{d}_reason"] != "")),
             TARGETS["omega_reported"])
         add("omega_reported_with_value", d, *_rate(ok[f"omega_{d}_reported"]))
-        reported = ok[ok[f"omega_{d}_reported"]]
+        reported = ok[ok[f"omega_{d}_reported"] & ok[f"omega_{d}_truth"].notna()]  # a root the generator labelled
         add("omega_within_2pct", d, *_rate(reported[f"omega_{d}_rel_error"].abs() <= 0.02),
             TARGETS["omega_within_2pct"])
         rel = reported[f"omega_{d}_rel_error"].abs()
