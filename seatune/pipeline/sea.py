@@ -163,7 +163,15 @@ def raos_at(vessel, loading, channels, omega, dirs_from, heading_deg) -> np.ndar
 def estimate_window(
     vessel, design, channels, x: np.ndarray, fs: float, priors, settings, heading_deg: float, segment_s: float
 ):
-    """The SeaEstimate of one window from its motion channels x (nch, n)."""
+    """The SeaEstimate of one window from its motion channels x (nch, n). On one BLAS thread: the fit's arrays are
+    small (a ~1300 × 20 Jacobian with six channels), and threading them on two cores made it 4× slower."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _estimate_window(vessel, design, channels, x, fs, priors, settings, heading_deg, segment_s)
+
+
+def _estimate_window(vessel, design, channels, x, fs, priors, settings, heading_deg, segment_s):
     from seatune.identification.sea_estimation import cross_spectra, estimate_sea
 
     omega, phi, nu = cross_spectra(x, fs, segment_s)
