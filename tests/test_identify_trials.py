@@ -162,6 +162,11 @@ def test_hindcast_missing_the_swell_is_flagged_and_left_out(tmp_path):
     systems = system_table(pd.read_parquet(out / "sea_states.parquet"))
     swell = systems[(systems.tp - 14.0).abs() < 2.0]
     assert swell.window_id.nunique() == systems.window_id.nunique() and not swell.in_hindcast.any()
-    assert ((swell.hs / 1.8 - 1).abs() < 0.25).all(), swell
+    found = swell.loc[swell.groupby("window_id").hs.idxmax()]  # each window's strongest 14 s system
+    assert ((found.hs / 1.8 - 1).abs() < 0.25).all(), swell
+    assert ((found.dir_from_deg - 270.0 + 180.0) % 360.0 - 180.0).abs().max() < 15.0, swell
+    # the horizontal channels may add a weaker crossing system at that period (seen: 0.71 m from 180° beside the
+    # 1.78 m swell in one window): the added-system cost the README's sea-channel table reports
+    assert (swell.drop(found.index).hs < 0.5 * found.set_index("window_id").hs.max()).all(), swell
     raos = pd.read_parquet(out / "raos.parquet")
     assert not raos[raos.scope == "window"].low_confidence.any()

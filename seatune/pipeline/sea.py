@@ -46,13 +46,15 @@ _MEASURED_KINDS = ("angle", "specific_force", "acceleration", "displacement", "v
 
 
 def sea_channels(model, available) -> list[str]:
-    """Roll, pitch and the vertical translations (rates repeat the angles; horizontal specific forces add surge
-    and sway, which the linear model holds worst: on the OSV bank trials they biased Hs by +10 %)."""
-    return [
-        c.name
-        for c in model.channels
-        if c.name in available and c.kind in _MEASURED_KINDS and (c.kind == "angle" or c.axis == "z")
-    ]
+    """The angles, the translations on every axis and the rate about an axis no angle measures (the yaw rate): a
+    wave buoy's horizontal motions, not only its heave and slopes, carry the direction. Roll and pitch rates repeat
+    the angles. On the blind bank, adding the horizontal specific forces and the yaw rate to roll, pitch and the
+    vertical ones found 82 % of the missing swells instead of 71 % and took clean-hull false alarms from 6 to 4 of
+    24, while the systems the fit added with no true counterpart rose from 0.14 to 0.26 per window."""
+    present = [c for c in model.channels if c.name in available]
+    angles = {c.axis for c in present if c.kind == "angle"}
+    return [c.name for c in present
+            if c.kind in _MEASURED_KINDS or (c.kind == "rate" and c.axis not in angles)]
 
 
 def _shows_roll(channel) -> bool:
