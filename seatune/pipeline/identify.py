@@ -434,8 +434,10 @@ def with_sea_spread(rows: list[dict], model, per_window: list[dict], prior_omega
 def uncertain_priors(model, known=()) -> dict[str, tuple[float, float, float]]:
     """{Loading field: (std, lower, upper)} of each vessel prior not in `known`, in the Loading's units (a
     displacement prior moves the mass; the mass stays within the database's drafts)."""
+    from seatune.pipeline.vessel import with_mass_aliases
+
     rho = model.db.rho
-    known = {"mass" if k == "displacement" else k for k in known}
+    known = with_mass_aliases(known)
     out = {}
     for name, p in model.spec.priors.items():
         scale, name = (rho, "mass") if name == "displacement" else (1.0, name)
