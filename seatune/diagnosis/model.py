@@ -212,11 +212,13 @@ def long_crested_wave(omega: np.ndarray, spectrum: np.ndarray, beta_deg: np.ndar
     return np.atleast_2d(spectrum)[:, :, None] * weights[:, None, :]
 
 
-def effect_channel_raos(vessel, loading, channel_names) -> np.ndarray:
-    """Channel transfer functions H_j(ω, β) on the database grid with the vessel YAML's model-side effects, for
-    every condition of `loading`: (N, nw, nb, nc), as physics.response.channel_raos."""
-    model = SpectralModel(vessel, (), omega=vessel.db.omega, channels=channel_names)
-    out = np.empty((len(loading), vessel.db.omega.size, vessel.db.wave_direction.size, len(channel_names)), complex)
+def effect_channel_raos(vessel, loading, channel_names, omega: np.ndarray | None = None) -> np.ndarray:
+    """Channel transfer functions H_j(ω, β) with the vessel YAML's model-side effects, for every condition of
+    `loading`: (N, nω, nb, nc), as physics.response.channel_raos; at `omega` (default the database grid) the
+    equation of motion is solved at each frequency, so a resonance between database frequencies is resolved."""
+    omega = vessel.db.omega if omega is None else np.asarray(omega, dtype=float)
+    model = SpectralModel(vessel, (), omega=omega, channels=channel_names)
+    out = np.empty((len(loading), omega.size, vessel.db.wave_direction.size, len(channel_names)), complex)
     for n in range(len(loading)):
         out[n] = model.parts_of(loading.take(slice(n, n + 1))).solve()
     return out

@@ -145,14 +145,12 @@ def design_loadings(vessel, parameters):
 
 
 def raos_at(vessel, loading, channels, omega, dirs_from, heading_deg) -> np.ndarray:
-    """Channel RAOs (L, nω, nD, nch) at ω and the coming-from directions D (β = ψ − D − 180°, DESIGN §3):
-    linear in ω (complex blend) and in β on the database's periodic grid."""
-    from seatune.physics.interp import interp_axis0
-    from seatune.physics.response import channel_raos
+    """Channel RAOs (L, nω, nD, nch) at ω and the coming-from directions D (β = ψ − D − 180°, DESIGN §3): the
+    equation of motion solved at each ω with the vessel's effects, linear in β on the database's periodic grid."""
+    from seatune.diagnosis.model import effect_channel_raos
 
     db = vessel.db
-    h = channel_raos(db, loading, [vessel.channel(c) for c in channels])  # (L, nw, nb, nch)
-    h = np.moveaxis(interp_axis0(db.omega, np.moveaxis(h, 1, 0), omega), 0, 1)
+    h = effect_channel_raos(vessel, loading, channels, omega)  # (L, nω, nb, nch), solved at each ω
     beta = np.mod(heading_deg - dirs_from - 180.0, 360.0)
     grid = np.degrees(db.wave_direction)
     step = 360.0 / grid.size
