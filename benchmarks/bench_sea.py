@@ -20,9 +20,9 @@ IMU = ["roll", "pitch", "roll_rate", "pitch_rate", "yaw_rate", "imu_fx", "imu_fy
 
 
 def _loop_cross_spectra(g, wave):
-    out = np.zeros(g.shape[:1] + g.shape[2:], dtype=complex)
+    out = np.zeros(g.shape[:1] + g.shape[2:])
     for d in range(wave.shape[1]):
-        out += g[:, d] * wave[:, d, None, None]
+        out += g[:, d] * wave[:, d, None]
     return out * 2 * np.pi / wave.shape[1]
 
 

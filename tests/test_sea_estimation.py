@@ -55,6 +55,20 @@ def test_partition_spectrum_holds_its_hs_and_direction():
     assert np.isclose(omega[np.argmax(s.sum(axis=1))], 2 * np.pi / 9.0, atol=0.01)
 
 
+def test_packed_cross_spectra_are_the_hermitian_sum_over_directions():
+    """Φ = Σ_D H Hᴴ S ΔD summed as complex matrices, against the packed real product the fit uses."""
+    from seatune.identification.sea_estimation import model_cross_spectra, outer_raos
+
+    rng = np.random.default_rng(5)
+    h = rng.normal(size=(7, 72, 4)) + 1j * rng.normal(size=(7, 72, 4))
+    wave = rng.uniform(0.0, 2.0, (7, 72))
+    full = np.einsum("wdi,wdj,wd->wij", h, np.conj(h), wave) * (2 * np.pi / 72)
+    packed = model_cross_spectra(outer_raos(h), wave)
+    i, j = np.triu_indices(4, 1)
+    assert np.allclose(packed[:, :4], np.real(np.einsum("wjj->wj", full)))
+    assert np.allclose(packed[:, 4:10] + 1j * packed[:, 10:], full[:, i, j])
+
+
 def test_sea_raos_resolve_a_resonance_between_database_frequencies():
     """The roll-angle RAO the sea fit uses, between the database's frequencies around the roll resonance, against the
     equation of motion solved there by physics.response.motion_raos_at; the database RAO blended linearly between
@@ -76,6 +90,34 @@ def test_sea_raos_resolve_a_resonance_between_database_frequencies():
     grid = channel_raos(db, loading, [model.channel("roll")])[0, :, beam, 0]
     blended = interp_axis0(db.omega, grid, omega)
     assert np.abs(np.log(np.abs(blended) / np.abs(exact))).max() > 0.15
+
+
+def test_the_fit_compares_the_model_as_welch_sees_it():
+    """A lightly damped resonance (ζ = 0.03) narrower than the 128 s bins, driven by white noise: scipy's Welch
+    estimate of a 6 h record is the smoothed model at every bin within its sampling error, while the model at the
+    bin centres misses the peak bins by up to a factor ~2."""
+    from seatune.diagnosis.model import welch_grid
+    from seatune.identification.sea_estimation import WelchWindow
+
+    fs, seg, wn, zeta = 4.0, 128.0, 0.5, 0.03
+    b, a = signal.bilinear([wn**2], [1.0, 2 * zeta * wn, wn**2], fs=fs)  # H(s) = ωn²/(s² + 2ζωn s + ωn²)
+    x = signal.lfilter(b, a, np.random.default_rng(2).normal(size=int(6 * 3600 * fs)))
+    omega, phi, nu = cross_spectra(x[None], fs, seg)
+    band = (omega > 0.3) & (omega < 0.8)
+    bins = omega[band]
+    welch = WelchWindow(*welch_grid(bins, seg, refine=3, lobes=2))
+
+    def model(w):  # white noise of variance 1 sampled at fs: one-sided density 2/(2π fs) per rad/s
+        z = np.exp(1j * w / fs)
+        hz = np.polyval(b, z) / np.polyval(a, z)
+        return np.abs(hz) ** 2 * 2 / (2 * np.pi * fs)
+
+    measured = phi[band, 0, 0].real
+    smoothed = welch.smooth(model(welch.omega)[:, None])[:, 0]
+    centre = model(bins)
+    err = np.sqrt(2.0 / nu)  # the Welch estimate's relative sampling error
+    assert np.abs(np.log(measured / smoothed)).max() < 4 * err
+    assert np.abs(np.log(measured / centre)).max() > 0.5
 
 
 def test_the_batched_jacobian_is_scipys_finite_difference():
