@@ -352,7 +352,8 @@ class Diagnoser:
             with np.errstate(divide="ignore", invalid="ignore"):
                 moved = self.data.mask & (np.abs(np.log(predf / pred0)) >= AFFECTED_CHANGE)
             select = moved if f.n_params and moved.any() else ctx.located
-            before, after_ = self._gaps(r0, sd0, pred0, select), self._gaps(rf, sdf, predf, select)
+            before = self._gaps(r0, sd0, pred0, select, ctx.located)
+            after_ = self._gaps(rf, sdf, predf, select, ctx.located)
             ctx.gaps[f.effect] = {**{f"{k}_before": v for k, v in before.items()},
                                   **{f"{k}_after": v for k, v in after_.items()}}
             ctx.left[f.effect] = res.bands(ctx.train_data, rf[self.train], sdf[self.train], self.modes(f.phi))
@@ -431,13 +432,15 @@ class Diagnoser:
         bands = res.bands(rep.data.subset(rep.train), r0[rep.train], sd0[rep.train], rep.modes(rep.phi_start))
         return rep, rep_base, bands
 
-    def _gaps(self, r, sd, pred, select) -> dict:
+    def _gaps(self, r, sd, pred, select, fallback) -> dict:
+        """Gap and σ error per role in the `select` bins; a role none of whose bins an effect moves is scored in
+        the `fallback` ones (the located misfit), not left without a figure."""
         out = {}
         w = trapezoid_weights(self.data.omega)
         for role, which in (("train", self.train), ("holdout", self.holdout)):
-            sel = select & which[:, None, None]
-            out[f"gap_{role}"] = res.gap(r, sd, sel)
-            chans = select.any(axis=(0, 2))
+            scored = select if (select & which[:, None, None]).any() or not which.any() else fallback
+            out[f"gap_{role}"] = res.gap(r, sd, scored & which[:, None, None])
+            chans = scored.any(axis=(0, 2))
             m = self.data.mask & which[:, None, None] & chans[None, :, None]
             meas = np.sqrt((self.data.measured * m) @ w)
             model = np.sqrt((pred * m) @ w)
