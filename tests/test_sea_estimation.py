@@ -343,3 +343,97 @@ def test_a_swell_crossing_the_hindcast_swell_at_its_period_is_split_off(tmp_path
     assert len(near[200.0]) == 1 and len(near[280.0]) == 1, systems
     found = near[280.0].iloc[0]
     assert not found["in_hindcast"] and abs(found["hs"] / 0.9 - 1) < 0.3
+
+
+def _window_estimate(prior, hs, tp, dir_from, std):
+    from seatune.identification.sea_estimation import SeaEstimate
+
+    value = {"hs": hs, "tp": tp, "dir_from_deg": dir_from, "spread_deg": 20.0, "gamma": 3.3}
+    sd = {"hs": std * hs, "tp": std * tp, "dir_from_deg": 100 * std, "spread_deg": 1e3, "gamma": 1e3}
+    return SeaEstimate([Partition(value, sd, prior)], [0], 1.0, 100, 0.0, 0.0)
+
+
+def test_pooled_priors_carry_the_records_hindcast_error_to_each_window():
+    """A hindcast 20 % low in Hs, 1 s short in Tp and 12° off in direction in every window, estimated per window
+    with 5 % noise: the pooled prior of each window is the hindcast corrected by the other windows' mean error
+    (leave one out: a window's own estimate does not move its prior), as narrow as their number allows; an error
+    that scatters between windows far beyond their noise keeps the prior wide (τ²)."""
+    from seatune.identification.sea_estimation import PartitionPrior, pooled_priors
+
+    rng = np.random.default_rng(3)
+    truth_hs, truth_tp, truth_dir = rng.uniform(1.0, 2.0, 12), rng.uniform(8.0, 10.0, 12), rng.uniform(0, 360, 12)
+    priors = [[PartitionPrior(0.8 * h, t - 1.0, (d + 12.0) % 360.0)]
+              for h, t, d in zip(truth_hs, truth_tp, truth_dir, strict=True)]
+    noise = 0.05 * rng.standard_normal((12, 3))
+    est = [_window_estimate(pr[0], h * np.exp(n[0]), t * np.exp(n[1]), d + 100 * n[2], 0.05)
+           for pr, h, t, d, n in zip(priors, truth_hs, truth_tp, truth_dir, noise, strict=True)]
+    pooled = pooled_priors(priors, est)
+    for w, (pp,) in enumerate(pooled):
+        others = np.arange(12) != w
+        found = [np.log([e.partitions[0].value["hs"] / p[0].hs, e.partitions[0].value["tp"] / p[0].tp])
+                 for e, p in zip(est, priors, strict=True)]
+        # the other windows' mean error (equal weights: equal noise), the data's share of the prior undone
+        share = 1 - (0.05 / np.array([priors[w][0].hs_log_std, priors[w][0].tp_log_std])) ** 2
+        expected = np.mean(np.array(found)[others], axis=0) / share
+        assert np.log([pp.hs / priors[w][0].hs, pp.tp / priors[w][0].tp]) == pytest.approx(expected, abs=1e-6)
+        assert np.log(pp.hs / priors[w][0].hs) == pytest.approx(np.log(1 / 0.8), abs=0.05)
+        assert (pp.dir_from_deg - truth_dir[w] + 180) % 360 - 180 == pytest.approx(0.0, abs=6.0)
+        assert 0.03 <= pp.hs_log_std < 0.05  # ≈ 0.05/√11: the other windows' mean, not one window's noise
+        assert pp.spread_deg == pytest.approx(priors[w][0].spread_deg)  # a coordinate no window resolved stays put
+        assert pp.spread_log_std == pytest.approx(priors[w][0].spread_log_std)
+    moved = [list(e.partitions) for e in est]
+    moved[0] = [Partition({**moved[0][0].value, "hs": 5.0}, moved[0][0].std, priors[0][0])]
+    again = pooled_priors(priors, [replace(e, partitions=m) for e, m in zip(est, moved, strict=True)])
+    assert again[0][0].hs == pytest.approx(pooled[0][0].hs)  # leave one out
+    scattered = [_window_estimate(pr[0], h * np.exp(0.5 * rng.standard_normal()), t, d, 0.05)
+                 for pr, h, t, d in zip(priors, truth_hs, truth_tp, truth_dir, strict=True)]
+    wide = pooled_priors(priors, scattered)
+    assert all(pp.hs_log_std == pytest.approx(0.25) for (pp,) in wide)  # τ ≈ 0.5 > the prior's 0.25: kept
+
+
+@pytest.fixture(scope="module")
+def biased_hindcast_record(tmp_path_factory):
+    """Six 20-minute windows of one record (independent generator) whose hindcast is 20 % low in Hs, 0.8 s long
+    in Tp and 8° off in direction throughout, as a hindcast's error persists over hours."""
+    out = tmp_path_factory.mktemp("pool")
+    spec = make_spec(trial="pool", index=11, hull="barge", category="clean", effects=[], n_windows=6, short=True,
+                     layout="partitions")
+    hindcast = {**spec.hindcast, "hs_rel_error": -0.20, "tp_error_s": 0.8, "dir_error_deg": 8.0}
+    truth = trial.generate(replace(spec, hindcast=hindcast), out)
+    return truth, out / "pool"
+
+
+def _hindcast_systems_error(truth, folder: Path) -> pd.DataFrame:
+    from seatune.validation.score import sea_rows
+
+    rows = pd.DataFrame(sea_rows(truth, pd.read_parquet(folder / "run" / "sea_states.parquet"),
+                                 pd.read_parquet(folder / "run" / "windows.parquet")))
+    return rows[(rows["kind"] != "false") & rows["in_hindcast"]]
+
+
+@pytest.mark.slow  # a six-window record generated and its sea fitted twice: 450 s on two loaded cores
+def test_pooling_the_records_windows_corrects_a_persistent_hindcast_error(biased_hindcast_record):
+    """sea.pool_windows (default) against each window alone, on the same record: the partitions the hindcast holds
+    are found as often and their Hs lies closer to the truth, and the table's hindcast columns stay the
+    hindcast's own (the pooled priors are not reported as the hindcast). Seen: median |Hs error| 7.2 → 5.1 %, the
+    hindcast's 19 %."""
+    import yaml
+
+    truth, folder = biased_hindcast_record
+    exe = Path(sys.executable).with_name("seatune")
+    errors = {}
+    for pool in (False, True):
+        data = yaml.safe_load((folder / "run.yaml").read_text())
+        data["sea"] = {"pool_windows": pool}
+        (folder / "run.yaml").write_text(yaml.safe_dump(data))
+        res = subprocess.run([str(exe), "sea", "run.yaml"], cwd=folder, capture_output=True, text=True)
+        assert res.returncode == 0, res.stdout + res.stderr
+        errors[pool] = _hindcast_systems_error(truth, folder)
+    alone, pooled = errors[False], errors[True]
+    print(alone[["window_id", "kind", "found", "hs_rel_error", "hindcast_hs_rel_error"]])
+    print(pooled[["window_id", "kind", "found", "hs_rel_error", "hindcast_hs_rel_error"]])
+    assert pooled["found"].sum() >= alone["found"].sum()
+    assert pooled["hs_rel_error"].abs().median() < alone["hs_rel_error"].abs().median()
+    both = alone.merge(pooled, on=["window_id", "kind"], suffixes=("_alone", "_pooled"))
+    both = both[both["found_alone"] & both["found_pooled"]]
+    assert np.allclose(both["hindcast_hs_rel_error_alone"], both["hindcast_hs_rel_error_pooled"])

@@ -34,6 +34,9 @@ neither fixes these):
   variances hold model error, and a fixed-variance χ² gain held back crossing swells in well-fitted windows. Bank,
   one window in two, missing swells found / false systems per window: χ² gain > 5 ln n with 3 partitions 55 % /
   0.15; profiled, 5 ln n, 3 partitions 67 % / 0.17; profiled, 7 ln n, 4 partitions 69 % / 0.11.
+* Record: a hindcast's error persists over the hours of a record while one window sees it through sampling noise,
+  so each window is fitted a second time with its hindcast priors moved by the error the record's other windows
+  found (`pooled_priors`, a random-effects mean).
 """
 
 from __future__ import annotations
@@ -421,6 +424,81 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
                                                           strict=True)]
     return SeaEstimate(parts, systems, float(chi2), problem.n_data, cost_hindcast, float(fit.cost),
                        ratio)
+
+
+POOL_MIN_WINDOWS = 3  # other windows with a matched partition needed to pool a hindcast partition's error
+# the pooled prior's narrowest std per coordinate (log Hs, log Tp, direction [deg], log spread, log γ): what the
+# windows' shared error is known to at best, whatever their number
+POOL_FLOOR = np.array([0.03, 0.02, 3.0, 0.1, 0.1])
+
+
+def pooled_priors(priors: list[list[PartitionPrior]], estimates: list[SeaEstimate | None]
+                  ) -> list[list[PartitionPrior]]:
+    """Each window's hindcast priors moved by the error the record's other windows found in them (leave one out).
+
+    A hindcast's error in a partition (Hs, Tp, direction; and the shape it assumes, spread and γ) persists over a
+    record of hours, while one window's estimate of it is noisy. Per partition slot (the k-th of n priors) and
+    coordinate, each window's estimate with the prior divided out (Gaussian: d/(1 − v/σ²), v/(1 − v/σ²) from the
+    posterior's offset d and variance v) enters a random-effects mean (DerSimonian & Laird 1986, eqs. 1–3: the
+    windows' scatter τ² beyond their own errors is estimated, so an error that drifts keeps the prior wide). Window w
+    then gets the prior mean + b₋w with std √(τ² + se²(b₋w)), floored at POOL_FLOOR, never wider than before."""
+    from dataclasses import replace
+
+    n_win = len(priors)
+    offsets = {}  # (n priors, slot) → list of (window, d (5,), v (5,))
+    for w, (pr, est) in enumerate(zip(priors, estimates, strict=True)):
+        if est is None:
+            continue
+        for k, prior in enumerate(pr):
+            members = [p for p in est.partitions if p.prior is prior]
+            if not members:
+                continue
+            top = max(members, key=lambda p: p.value["hs"])
+            hs = float(np.sqrt(sum(p.value["hs"] ** 2 for p in members)))
+            value = np.array([np.log(hs), np.log(top.value["tp"]), top.value["dir_from_deg"],
+                              np.log(top.value["spread_deg"]), np.log(top.value["gamma"])])
+            std = np.array([top.std["hs"] / hs, top.std["tp"] / top.value["tp"], top.std["dir_from_deg"],
+                            top.std["spread_deg"] / top.value["spread_deg"], top.std["gamma"] / top.value["gamma"]])
+            d = value - prior.mean()
+            d[2] = (d[2] + 180.0) % 360.0 - 180.0
+            keep = 1.0 - std**2 / prior.std() ** 2  # the data's share of the posterior precision
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ok = np.isfinite(std) & (std > 0) & (keep > 0.05)
+                offsets.setdefault((len(pr), k), []).append(
+                    (w, np.where(ok, d / keep, 0.0), np.where(ok, std**2 / keep, np.inf)))
+    out = [list(pr) for pr in priors]
+    for (n_pr, k), rows in offsets.items():
+        wins = np.array([r[0] for r in rows])
+        d, v = np.array([r[1] for r in rows]), np.array([r[2] for r in rows])  # (n, 5)
+        w = np.where(np.isfinite(v), 1.0 / v, 0.0)
+        used = (w > 0).sum(axis=0)
+        sw = w.sum(axis=0)
+        mean = (w * d).sum(axis=0) / np.maximum(sw, 1e-300)
+        q = (w * (d - mean) ** 2).sum(axis=0)
+        tau2 = np.maximum(0.0, (q - (used - 1)) / np.maximum(sw - (w**2).sum(axis=0) / np.maximum(sw, 1e-300),
+                                                               1e-300))
+        ws = np.where(w > 0, 1.0 / (np.where(w > 0, v, 1.0) + tau2), 0.0)
+        for w_idx in range(n_win):
+            pr = priors[w_idx]
+            if len(pr) != n_pr:
+                continue
+            others = wins != w_idx
+            n_other = (ws[others] > 0).sum(axis=0)
+            s = ws[others].sum(axis=0)
+            b = (ws[others] * d[others]).sum(axis=0) / np.maximum(s, 1e-300)
+            std0 = pr[k].std()
+            std = np.clip(np.sqrt(tau2 + 1.0 / np.maximum(s, 1e-300)), POOL_FLOOR, std0)
+            pooled = n_other >= POOL_MIN_WINDOWS
+            if not pooled.any():
+                continue
+            b, std = np.where(pooled, b, 0.0), np.where(pooled, std, std0)
+            m = pr[k].mean() + b
+            out[w_idx][k] = replace(pr[k], hs=float(np.exp(m[0])), tp=float(np.exp(m[1])),
+                                    dir_from_deg=float(m[2] % 360.0), spread_deg=float(np.exp(m[3])),
+                                    gamma=float(np.exp(m[4])), hs_log_std=float(std[0]), tp_log_std=float(std[1]),
+                                    dir_std_deg=float(std[2]), spread_log_std=float(std[3]),
+                                    gamma_log_std=float(std[4]))
+    return out
 
 
 def _shape_correction(x: np.ndarray, tp_rel: float = 0.25) -> bool:

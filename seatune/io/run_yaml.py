@@ -142,6 +142,8 @@ class SeaSettings(Strict):
     omega_max: PositiveFloat = 2.0
     iterations: Annotated[int, Field(ge=1, le=5)] = 1  # > 1: sea and vessel alternate (sea → tune → sea …)
     roll_free: bool = True  # also fit each window's sea without the roll channels, for identify's roll ω_n
+    # fit each window again with the hindcast's error the record's other windows found (partial pooling)
+    pool_windows: bool = True
     segment_s: PositiveFloat = 128.0  # Welch segment of the cross-spectra (Δω 0.05 rad/s, twice the filter's ν)
     # prior widths of the hindcast's partitions, floors of hindcast.uncertainty (ERA5 vs buoys, Han A5 Table 4.1)
     hs_rel_std: PositiveFloat = 0.25

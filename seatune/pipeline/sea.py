@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from seatune.identification.sea_estimation import DIRS_FROM
+from seatune.identification.sea_estimation import DIRS_FROM, POOL_MIN_WINDOWS, pooled_priors
 
 SEA_UNITS = {
     "window_id": "",
@@ -199,7 +199,10 @@ def _estimate_window(vessel, design, channels, x, fs, priors, settings, heading_
     )
 
 
-def partition_rows(window_id: str, est, heading_deg: float, channels, priors) -> list[dict]:
+def partition_rows(window_id: str, est, heading_deg: float, channels, priors, fitted_priors=None) -> list[dict]:
+    """Rows of sea_states.parquet; `fitted_priors`: the priors the fit used in place of `priors` (pooled), the
+    hindcast columns still the hindcast's."""
+    hindcast_of = {id(f): p for f, p in zip(fitted_priors or priors, priors, strict=True)}
     order = sorted(range(len(est.partitions)), key=lambda k: est.partitions[k].value["tp"])
     shortest = est.partitions[order[0]].value["tp"]
     other = min(
@@ -212,7 +215,7 @@ def partition_rows(window_id: str, est, heading_deg: float, channels, priors) ->
         p, system = est.partitions[i], est.systems[i]
         wind = system == est.systems[order[0]] and shortest < 0.8 * other
         kind = "wind_sea" if wind else ("total" if len(set(est.systems)) == 1 else "swell")
-        pr = p.prior
+        pr = hindcast_of.get(id(p.prior)) if p.prior is not None else None
         rows.append(
             {
                 "window_id": window_id,
@@ -281,7 +284,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
     keep = [k for k, c in enumerate(channels) if not _shows_roll(vessel.channel(c))]
     roll_free = settings.roll_free and 2 <= len(keep) < len(channels)
     without_roll = [channels[k] for k in keep]
-    rows, rows_roll = [], []
+    inputs = []  # (window id, heading, x, hindcast priors)
     for row in windows[windows["accepted"]].sort_values("start").itertuples():
         part = motions.window(row.start, row.end, ["lat", "lon", *channels], record=row.record)
         mid = len(part) // 2
@@ -297,12 +300,23 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
         if bad.any():  # short gaps: linear in time
             idx = np.arange(x.shape[1])
             x = np.array([np.interp(idx, idx[np.isfinite(r)], r[np.isfinite(r)]) for r in x])
-        est = estimate_window(vessel, design, channels, x, fs, priors, settings, row.heading_deg, settings.segment_s)
-        rows += partition_rows(str(row.window_id), est, row.heading_deg, channels, priors)
-        if roll_free:
-            est = estimate_window(vessel, design, without_roll, x[keep], fs, priors, settings, row.heading_deg,
-                                  settings.segment_s)
-            rows_roll += partition_rows(str(row.window_id), est, row.heading_deg, without_roll, priors)
+        inputs.append((str(row.window_id), float(row.heading_deg), x, priors))
+
+    def fit_all(names, rows_of):
+        est = [estimate_window(vessel, design, names, x[rows_of], fs, pr, settings, hd, settings.segment_s)
+               for _, hd, x, pr in inputs]
+        if settings.pool_windows and len(inputs) > POOL_MIN_WINDOWS:
+            pooled = pooled_priors([pr for *_, pr in inputs], est)
+            est = [e if all(a is b for a, b in zip(pp, pr, strict=True)) else  # no prior moved: the same fit
+                   estimate_window(vessel, design, names, x[rows_of], fs, pp, settings, hd, settings.segment_s)
+                   for (_, hd, x, pr), pp, e in zip(inputs, pooled, est, strict=True)]
+        else:
+            pooled = [pr for *_, pr in inputs]
+        return [r for (wid, hd, _, pr), e, pp in zip(inputs, est, pooled, strict=True)
+                for r in partition_rows(wid, e, hd, names, pr, pp)]
+
+    rows = fit_all(channels, slice(None))
+    rows_roll = fit_all(without_roll, keep) if roll_free else []
     table = pd.DataFrame(rows, columns=list(SEA_UNITS))
     if settings.roll_free:  # empty when too few channels remain without roll: identify then takes the full fit
         write_table(pd.DataFrame(rows_roll, columns=list(SEA_UNITS)), out_roll, SEA_UNITS, {"fingerprint": fp})
