@@ -90,6 +90,15 @@ class PartitionPrior:
         return np.array([self.hs_log_std, self.tp_log_std, self.dir_std_deg, self.spread_log_std,
                          self.gamma_log_std])
 
+    def moved(self, mean: np.ndarray, std: np.ndarray) -> PartitionPrior:
+        """This prior with the fitted coordinates' mean and std replaced (the inverse of mean() and std())."""
+        from dataclasses import replace
+
+        return replace(self, hs=float(np.exp(mean[0])), tp=float(np.exp(mean[1])), dir_from_deg=float(mean[2] % 360.0),
+                       spread_deg=float(np.exp(mean[3])), gamma=float(np.exp(mean[4])), hs_log_std=float(std[0]),
+                       tp_log_std=float(std[1]), dir_std_deg=float(std[2]), spread_log_std=float(std[3]),
+                       gamma_log_std=float(std[4]))
+
 
 @dataclass(frozen=True)
 class Partition:
@@ -442,8 +451,6 @@ def pooled_priors(priors: list[list[PartitionPrior]], estimates: list[SeaEstimat
     posterior's offset d and variance v) enters a random-effects mean (DerSimonian & Laird 1986, eqs. 1–3: the
     windows' scatter τ² beyond their own errors is estimated, so an error that drifts keeps the prior wide). Window w
     then gets the prior mean + b₋w with std √(τ² + se²(b₋w)), floored at POOL_FLOOR, never wider than before."""
-    from dataclasses import replace
-
     n_win = len(priors)
     offsets = {}  # (n priors, slot) → list of (window, d (5,), v (5,))
     for w, (pr, est) in enumerate(zip(priors, estimates, strict=True)):
@@ -491,13 +498,7 @@ def pooled_priors(priors: list[list[PartitionPrior]], estimates: list[SeaEstimat
             pooled = n_other >= POOL_MIN_WINDOWS
             if not pooled.any():
                 continue
-            b, std = np.where(pooled, b, 0.0), np.where(pooled, std, std0)
-            m = pr[k].mean() + b
-            out[w_idx][k] = replace(pr[k], hs=float(np.exp(m[0])), tp=float(np.exp(m[1])),
-                                    dir_from_deg=float(m[2] % 360.0), spread_deg=float(np.exp(m[3])),
-                                    gamma=float(np.exp(m[4])), hs_log_std=float(std[0]), tp_log_std=float(std[1]),
-                                    dir_std_deg=float(std[2]), spread_log_std=float(std[3]),
-                                    gamma_log_std=float(std[4]))
+            out[w_idx][k] = pr[k].moved(pr[k].mean() + np.where(pooled, b, 0.0), np.where(pooled, std, std0))
     return out
 
 

@@ -199,10 +199,10 @@ def _estimate_window(vessel, design, channels, x, fs, priors, settings, heading_
     )
 
 
-def partition_rows(window_id: str, est, heading_deg: float, channels, priors, fitted_priors=None) -> list[dict]:
-    """Rows of sea_states.parquet; `fitted_priors`: the priors the fit used in place of `priors` (pooled), the
-    hindcast columns still the hindcast's."""
-    hindcast_of = {id(f): p for f, p in zip(fitted_priors or priors, priors, strict=True)}
+def partition_rows(window_id: str, est, heading_deg: float, channels, priors, fitted_priors) -> list[dict]:
+    """Rows of sea_states.parquet; `fitted_priors`: the priors the fit used in place of the hindcast's `priors`
+    (pooled, or the same), the hindcast columns still the hindcast's."""
+    hindcast_of = {id(f): p for f, p in zip(fitted_priors, priors, strict=True)}
     order = sorted(range(len(est.partitions)), key=lambda k: est.partitions[k].value["tp"])
     shortest = est.partitions[order[0]].value["tp"]
     other = min(
