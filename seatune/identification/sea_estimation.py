@@ -357,8 +357,8 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
     welch : the model compared as Welch's estimate sees it (h and h_design then on welch.omega): a roll resonance or
     a swell narrower than the bin spacing is smeared over its neighbours; None: the model at the bins
     start : a fit of this window under other priors (SeaEstimate.x): refitted from there with its added partitions
-    kept, without a new search for more (the priors' move does not change what the data hold beyond them); the
-    pruning still runs
+    kept, then searched for more and pruned as from the hindcast (priors moved closer to the truth let a swell the
+    first fit missed pass: skipping that search lost 3 of 63 found missing swells on the blind bank)
     """
     nch = phi_measured.shape[1]
     floor = 0.01 * np.real(np.einsum("wjj->wj", phi_measured)).max(axis=0)
@@ -403,7 +403,7 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
         rss0, rss1 = (float(np.sum(f.fun[: mask.size][mask] ** 2)) for f in (smaller, larger))
         return n_eff * np.log(max(rss0, 1e-300) / max(rss1, 1e-300))
 
-    while start is None and len(used) < max_partitions and anchor.any():
+    while len(used) < max_partitions and anchor.any():
         cand_priors = [*used, None]
         trial = min((_fit(problem, start, cand_priors) for start in _search_added(problem, x, used, min_hs)),
                     key=lambda f: f.cost)
