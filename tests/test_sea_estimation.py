@@ -416,7 +416,7 @@ def test_pooling_the_records_windows_corrects_a_persistent_hindcast_error(biased
     """sea.pool_windows (default) against each window alone, on the same record: the partitions the hindcast holds
     are found as often and their Hs lies closer to the truth, and the table's hindcast columns stay the
     hindcast's own (the pooled priors are not reported as the hindcast). Seen: median |Hs error| 7.2 → 5.7 %, the
-    hindcast's 19 % (5.1 % when the second pass searched afresh for added systems)."""
+    hindcast's 19 % (5.1 % when the second pass started from the hindcast instead of the first fit)."""
     import yaml
 
     truth, folder = biased_hindcast_record

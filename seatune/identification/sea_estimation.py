@@ -128,9 +128,14 @@ class SeaEstimate:
         return float(np.sqrt(sum(p.value["hs"] ** 2 for p in self.partitions)))
 
 
+def signed_direction_deg(a, b=0.0):
+    """a − b of directions in degrees, on the circle: −180 to 180."""
+    return (np.asarray(a, dtype=float) - b + 180.0) % 360.0 - 180.0
+
+
 def direction_difference_deg(a, b):
     """|a − b| of directions in degrees, on the circle: 0–180."""
-    return np.abs((np.asarray(a, dtype=float) - b + 180.0) % 360.0 - 180.0)
+    return np.abs(signed_direction_deg(a, b))
 
 
 # ------------------------------------------------------------------------- measured cross-spectra
@@ -238,7 +243,7 @@ class _Problem:
         for xp, prior in zip(x, priors, strict=True):
             mean, std = (prior.mean(), prior.std()) if prior is not None else (_FREE_MEAN, _FREE_STD)
             d = xp - mean
-            d[2] = (d[2] + 180.0) % 360.0 - 180.0
+            d[2] = signed_direction_deg(d[2])
             r.append(np.where(np.isfinite(std), d / std, 0.0))
         return np.concatenate(r)
 
@@ -475,7 +480,7 @@ def pooled_priors(priors: list[list[PartitionPrior]], estimates: list[SeaEstimat
             std = np.array([top.std["hs"] / hs, top.std["tp"] / top.value["tp"], top.std["dir_from_deg"],
                             top.std["spread_deg"] / top.value["spread_deg"], top.std["gamma"] / top.value["gamma"]])
             d = value - prior.mean()
-            d[2] = (d[2] + 180.0) % 360.0 - 180.0
+            d[2] = signed_direction_deg(d[2])
             keep = 1.0 - std**2 / prior.std() ** 2  # the data's share of the posterior precision
             with np.errstate(divide="ignore", invalid="ignore"):
                 ok = np.isfinite(std) & (std > 0) & (keep > 0.05)
