@@ -9,7 +9,6 @@ residual evaluation per column) and the model cross-spectra summed direction by 
 
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -70,15 +69,10 @@ def run() -> dict:
     priors = [PartitionPrior(1.3, 7.9, 210.0), PartitionPrior(1.05, 11.0, 275.0)]  # the swell at 16 s is absent
     settings = SeaSettings()
 
-    def fit(pr=priors, start=None):
-        return estimate_window(model, design, channels, x, 10.0, pr, settings, heading, 128.0, start=start)
+    def fit():
+        return estimate_window(model, design, channels, x, 10.0, priors, settings, heading, 128.0)
 
     t_seatune, est = best_of(fit, 3)
-    # the pooled sea's second pass: the window refitted under moved hindcast priors from its first fit, against
-    # the same refit searched afresh (what it cost before it started from the first fit)
-    moved = [replace(p, hs=1.1 * p.hs, hs_log_std=0.05) for p in priors]
-    t_refit, _ = best_of(lambda: fit(moved, est.x), 3)
-    t_refit_fresh, _ = best_of(lambda: fit(moved), 1)
     fast, fast_jacobian = se.model_cross_spectra, se._Problem.jacobian
     se.model_cross_spectra, se._Problem.jacobian = _loop_cross_spectra, _scipy_jacobian
     try:
@@ -89,8 +83,6 @@ def run() -> dict:
     return {"name": "sea", "window_s": 2400, "channels": channels,
             "reference": "scipy 2-point Jacobian and a Σ_D loop for Φ(ω) in the same fit",
             "reference_s": t_ref, "seatune_s": t_seatune, "ratio": t_ref / t_seatune,
-            "pooled_refit_s": t_refit, "pooled_refit_fresh_s": t_refit_fresh,
-            "pooled_refit_ratio": t_refit_fresh / t_refit,
             "max_rel_diff_hs": float(max(abs(a.value["hs"] / b.value["hs"] - 1)
                                          for a, b in zip(est.partitions, ref.partitions, strict=False))),
             "estimated_partitions": found, "true_partitions": [(1.5, 7.5, 200), (1.2, 11.5, 280), (0.8, 16.0, 20)]}

@@ -119,9 +119,6 @@ class SeaEstimate:
     cost_hindcast: float  # ½Σr² of the hindcast sea itself (the prior means), for the residual check
     cost: float
     channel_ratio: dict = field(default_factory=dict)  # per channel: measured / model response variance
-    # the fitted coordinates (log Hs, log Tp, direction, log spread, log γ) per partition, the hindcast's priors'
-    # rows first and in their order, then the added ones: where a refit with moved priors starts
-    x: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def hs_total(self) -> float:
@@ -351,8 +348,7 @@ def _split_starts(x: np.ndarray) -> list[np.ndarray]:
 
 def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_from_deg: np.ndarray,
                  h: np.ndarray, h_design: np.ndarray, priors: list[PartitionPrior], *, max_partitions: int = 4,
-                 min_hs: float = 0.3, channel_names=(), welch: WelchWindow | None = None,
-                 start: np.ndarray | None = None) -> SeaEstimate:
+                 min_hs: float = 0.3, channel_names=(), welch: WelchWindow | None = None) -> SeaEstimate:
     """MAP directional sea of one window.
 
     omega : (nω,) the band to fit [rad/s]; phi_measured : (nω, nch, nch) Φ̂ on it; nu : its degrees of freedom
@@ -361,9 +357,6 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
     priors : the hindcast's partitions (at least one)
     welch : the model compared as Welch's estimate sees it (h and h_design then on welch.omega): a roll resonance or
     a swell narrower than the bin spacing is smeared over its neighbours; None: the model at the bins
-    start : a fit of this window under other priors (SeaEstimate.x): refitted from there with its added partitions
-    kept, then searched for more and pruned as from the hindcast (priors moved closer to the truth let a swell the
-    first fit missed pass: skipping that search lost 3 of 63 found missing swells on the blind bank)
     """
     nch = phi_measured.shape[1]
     floor = 0.01 * np.real(np.einsum("wjj->wj", phi_measured)).max(axis=0)
@@ -388,9 +381,8 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
     problem = _Problem(model_omega, dirs_from_deg, g, np.log(auto_m), coh_m, floor, auto_std, coh_std, pairs, welch)
 
     cost_hindcast = 0.5 * float(np.sum(problem.residuals(x_prior.ravel(), list(priors)) ** 2))
-    used = list(priors) + ([] if start is None else [None] * (len(start) - len(priors)))
-    fit = _fit(problem, x_prior if start is None else start, used)
-    x = fit.x.reshape(-1, 5)
+    fit = _fit(problem, x_prior, list(priors))
+    x, used = fit.x.reshape(-1, 5), list(priors)
     # a wave system must be seen where the loading hardly changes the response (design spread of the log
     # autospectrum < 0.15: heave and pitch, away from the roll resonance they share through coupling), not
     # only where an uncertain resonance could explain it
@@ -445,7 +437,7 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
     parts = [Partition(p.value, p.std, m) for p, m in zip(parts, match_hindcast(parts, systems, list(priors)),
                                                           strict=True)]
     return SeaEstimate(parts, systems, float(chi2), problem.n_data, cost_hindcast, float(fit.cost),
-                       ratio, x)
+                       ratio)
 
 
 POOL_MIN_WINDOWS = 3  # other windows with a matched partition needed to pool a hindcast partition's error

@@ -164,18 +164,17 @@ def raos_at(vessel, loading, channels, omega, dirs_from, heading_deg) -> np.ndar
 
 
 def estimate_window(
-    vessel, design, channels, x: np.ndarray, fs: float, priors, settings, heading_deg: float, segment_s: float,
-    start=None,
+    vessel, design, channels, x: np.ndarray, fs: float, priors, settings, heading_deg: float, segment_s: float
 ):
     """The SeaEstimate of one window from its motion channels x (nch, n). On one BLAS thread: the fit's arrays are
     small (a ~1300 × 20 Jacobian with six channels), and threading them on two cores made it 4× slower."""
     from threadpoolctl import threadpool_limits
 
     with threadpool_limits(limits=1, user_api="blas"):
-        return _estimate_window(vessel, design, channels, x, fs, priors, settings, heading_deg, segment_s, start)
+        return _estimate_window(vessel, design, channels, x, fs, priors, settings, heading_deg, segment_s)
 
 
-def _estimate_window(vessel, design, channels, x, fs, priors, settings, heading_deg, segment_s, start=None):
+def _estimate_window(vessel, design, channels, x, fs, priors, settings, heading_deg, segment_s):
     from seatune.diagnosis.model import welch_grid
     from seatune.identification.sea_estimation import WelchWindow, cross_spectra, estimate_sea
 
@@ -197,7 +196,6 @@ def _estimate_window(vessel, design, channels, x, fs, priors, settings, heading_
         min_hs=settings.min_hs,
         channel_names=channels,
         welch=welch,
-        start=start,
     )
 
 
@@ -309,9 +307,10 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
                for _, hd, x, pr in inputs]
         if settings.pool_windows and len(inputs) > POOL_MIN_WINDOWS:
             pooled = pooled_priors([pr for *_, pr in inputs], est)
+            # refitted from the pooled priors, not from the first fit: started there (2.4× cheaper), the blind bank's
+            # wind seas found fell 91 → 87 % and clean-hull false alarms rose 3 → 5 of 24
             est = [e if all(a is b for a, b in zip(pp, pr, strict=True)) else  # no prior moved: the same fit
-                   estimate_window(vessel, design, names, x[rows_of], fs, pp, settings, hd, settings.segment_s,
-                                   start=e.x)  # from the first fit, its added systems kept
+                   estimate_window(vessel, design, names, x[rows_of], fs, pp, settings, hd, settings.segment_s)
                    for (_, hd, x, pr), pp, e in zip(inputs, pooled, est, strict=True)]
         else:
             pooled = [pr for *_, pr in inputs]
