@@ -41,7 +41,7 @@ neither fixes these):
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cache
 
 import numpy as np
@@ -92,8 +92,6 @@ class PartitionPrior:
 
     def moved(self, mean: np.ndarray, std: np.ndarray) -> PartitionPrior:
         """This prior with the fitted coordinates' mean and std replaced (the inverse of mean() and std())."""
-        from dataclasses import replace
-
         return replace(self, hs=float(np.exp(mean[0])), tp=float(np.exp(mean[1])), dir_from_deg=float(mean[2] % 360.0),
                        spread_deg=float(np.exp(mean[3])), gamma=float(np.exp(mean[4])), hs_log_std=float(std[0]),
                        tp_log_std=float(std[1]), dir_std_deg=float(std[2]), spread_log_std=float(std[3]),
@@ -120,9 +118,10 @@ class SeaEstimate:
     cost: float
     channel_ratio: dict = field(default_factory=dict)  # per channel: measured / model response variance
 
-    @property
-    def hs_total(self) -> float:
-        return float(np.sqrt(sum(p.value["hs"] ** 2 for p in self.partitions)))
+
+def partitions_hs(partitions) -> float:
+    """Hs of partitions together, √Σ Hs² [m] (their variances add)."""
+    return float(np.sqrt(sum(p.value["hs"] ** 2 for p in partitions)))
 
 
 def signed_direction_deg(a, b=0.0):
@@ -466,7 +465,7 @@ def pooled_priors(priors: list[list[PartitionPrior]], estimates: list[SeaEstimat
             if not members:
                 continue
             top = max(members, key=lambda p: p.value["hs"])
-            hs = float(np.sqrt(sum(p.value["hs"] ** 2 for p in members)))
+            hs = partitions_hs(members)
             value = np.array([np.log(hs), np.log(top.value["tp"]), top.value["dir_from_deg"],
                               np.log(top.value["spread_deg"]), np.log(top.value["gamma"])])
             std = np.array([top.std["hs"] / hs, top.std["tp"] / top.value["tp"], top.std["dir_from_deg"],
