@@ -41,7 +41,7 @@ golden: $(STAMP)
 	$(BIN)/python -m seatune.report.golden runs/sample/summary.parquet tests/golden/sample_summary.json
 
 # Blind-validation trial bank (issue 15): seeded trials from the independent path (seatune/simulate/independent/), bit-identical
-# on regeneration. full: 62 trials, ~5 min on 2 cores, ~1.4 GB (not committed); TRIAL_BANK_SUBSET=ci: 6 short trials.
+# on regeneration. full: 62 trials, ~5 min on 2 cores, ~1.4 GB (not committed); TRIAL_BANK_SUBSET=ci: 4 short trials.
 TRIAL_BANK        ?= trial_bank
 TRIAL_BANK_SUBSET ?= full
 trial-bank: $(STAMP)

@@ -22,6 +22,7 @@ from seatune.physics.channels import Channel, transfer_vectors
 from seatune.physics.spectra import jonswap
 from seatune.simulate import effects as sim
 from tests import diagnosis_trials as trials
+from tests.conftest import copy_of_sample
 
 EFFECT = {e.name: e for e in library(moonpool_position=trials.MOONPOOL_AT)}
 
@@ -237,12 +238,11 @@ def test_hidden_effect_trials_over_many_seeds(sample_model):
 # the stage on sample_logs/ and a full simulated trial
 
 @pytest.fixture(scope="module")
-def diagnosed(tmp_path_factory):
-    from tests.test_tune_sample import sample_run
-
+def diagnosed(tmp_path_factory, finished_sample):
+    """`seatune diagnose` again on a copy of the finished sample run (conftest.py)."""
     tmp = tmp_path_factory.mktemp("diagnose")
-    path = sample_run(tmp)
-    res = run_cli("diagnose", path)
+    path = copy_of_sample(finished_sample, tmp)
+    res = run_cli("diagnose", path, "--force", "diagnose")
     assert res.returncode == 0, res.stderr
     return tmp, path, res.stdout
 

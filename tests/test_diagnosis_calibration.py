@@ -79,6 +79,7 @@ def sample_model():
     return open_vessel(Path(__file__).resolve().parents[1] / "configs/vessels/sample_osv.yaml")
 
 
+@pytest.mark.slow  # ~75 s: the calibration is off by default (diagnose.calibration.replicates 0)
 def test_calibrated_decision_names_a_hidden_moonpool_above_the_null(sample_model):
     """Time-domain windows with a hidden moonpool (the simulator's own mechanism), the null's sea errors those the
     trial's likelihood allows (Hs 5 %, Tp and direction exact) and a small model error: the moonpool is named at the

@@ -20,8 +20,9 @@ def run_cli(*args):
     return subprocess.run([sys.executable, "-m", "seatune", *map(str, args)], capture_output=True, text=True)
 
 
-def trial(tmp, seed: int, headings, drop_swell=False, sea=SEA, known=True, estimate_sea=False):
-    """Simulate a trial of three 60-min drifts, write its run YAML, run identify; returns (run_dir, truth)."""
+def trial(tmp, seed: int, headings, drop_swell=False, sea=SEA, known=True, estimate_sea=False, logs=None):
+    """Simulate a trial of 60-min drifts (or take the `logs` of one simulated before), write its run YAML, run
+    identify; returns (run_dir, truth, run YAML)."""
     segments = [{"kind": "transit", "duration": 600, "speed": 5.0, "course_deg": 0}]
     for h in headings:
         segments += [{"kind": "drift", "duration": 3600, "heading_deg": h, "heading_rate_deg_per_h": 2.0,
@@ -40,10 +41,11 @@ def trial(tmp, seed: int, headings, drop_swell=False, sea=SEA, known=True, estim
         "synthesis": {"components_per_direction": 120},
     }
     tmp.mkdir(parents=True, exist_ok=True)
-    (tmp / "scenario.yaml").write_text(yaml.safe_dump(scenario))
-    res = run_cli("simulate", tmp / "scenario.yaml", "--out", tmp / "logs")
-    assert res.returncode == 0, res.stderr
-    logs = tmp / "logs"
+    if logs is None:
+        (tmp / "scenario.yaml").write_text(yaml.safe_dump(scenario))
+        res = run_cli("simulate", tmp / "scenario.yaml", "--out", tmp / "logs")
+        assert res.returncode == 0, res.stderr
+        logs = tmp / "logs"
     run = {"name": "trial", "run_dir": str(tmp / "run"), "vessel": str(ROOT / "configs/vessels/sample_osv.yaml"),
            "logs": [{"path": str(next(logs.glob("*.mcap")))}],
            "hindcast": {"path": str(next(logs.glob("*.nc")))},
@@ -156,7 +158,7 @@ def test_hindcast_missing_the_swell_is_flagged_and_left_out(tmp_path):
     assert (raos.scope == "aggregate").any()
     # the sea estimated from the motions finds the dropped 14 s swell: no window is flagged any more
     out, _, _ = trial(tmp_path / "estimated", 21, (260, 90), drop_swell=True, sea=long_swell, known=False,
-                      estimate_sea=True)
+                      estimate_sea=True, logs=tmp_path / "dropped" / "logs")
     from seatune.pipeline.sea import system_table
 
     systems = system_table(pd.read_parquet(out / "sea_states.parquet"))

@@ -241,8 +241,9 @@ def test_bank_definition_meets_the_issue():
     assert any(r.get("missing_swell") for r in full if r["category"] == "clean")
     assert len({r["trial"] for r in full}) == len(full)
     ci = definitions("ci")
-    assert len(ci) == 6 and {r["hull"] for r in ci} == {"osv", "barge"}
+    assert len(ci) == 4 and {r["hull"] for r in ci} == {"osv", "barge"}
     assert {"clean", "compound"} <= {r["category"] for r in ci}
+    assert {r["layout"] for r in ci} == {"bulk", "partitions", "d2fd"}
     # loading truth within the priors' bounds
     spec = make_spec(**full[1])
     assert 5.5 <= spec.loading.r44 <= 8.5 and spec.hull == "barge"

@@ -18,7 +18,7 @@ from seatune.physics.extremes import (
     rotation_operator,
     upcrossing_rate,
 )
-from tests.conftest import ROOT
+from tests.conftest import ROOT, copy_of_sample
 from tests.test_pipeline_sample import SAMPLE, run_cli
 from tests.test_tune_sample import sample_run
 
@@ -177,13 +177,10 @@ def test_optimal_heading_is_the_argmin():
 
 
 @pytest.fixture(scope="module")
-def tuned_sample(tmp_path_factory):
-    """The sample run tuned once in a temporary directory (the predict block from configs/runs/sample.yaml)."""
+def tuned_sample(tmp_path_factory, finished_sample):
+    """A copy of the finished sample run (conftest.py; the predict block from configs/runs/sample.yaml)."""
     tmp = tmp_path_factory.mktemp("predict")
-    path = sample_run(tmp)
-    res = run_cli("tune", path)
-    assert res.returncode == 0, res.stderr
-    return tmp, path
+    return tmp, copy_of_sample(finished_sample, tmp)
 
 
 def with_predict(tmp, name, **predict):

@@ -20,7 +20,7 @@ import yaml
 from seatune.io.motion_table import MotionTable
 from seatune.io.parquet import table_metadata
 from seatune.report.golden import compare, read_summary
-from tests.conftest import ROOT
+from tests.conftest import ROOT, copy_of_sample
 from tests.test_pipeline_sample import run_cli
 from tests.test_tune_sample import sample_run
 
@@ -31,10 +31,11 @@ SECTIONS = ("summary", "defects", "windows", "filter", "raos", "natural-frequenc
 
 
 @pytest.fixture(scope="module")
-def reported(tmp_path_factory):
-    """The whole pipeline once, ingest → report, on the sample run in a temporary run directory."""
+def reported(tmp_path_factory, finished_sample):
+    """`seatune report` on a copy of the finished sample run (conftest.py): the page made again, every stage before
+    it up to date."""
     tmp = tmp_path_factory.mktemp("report")
-    path = sample_run(tmp)
+    path = copy_of_sample(finished_sample, tmp)
     res = run_cli("report", path)
     assert res.returncode == 0, res.stderr
     return tmp / "run", path, res.stdout

@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 import yaml
 
-from tests.conftest import ROOT
+from tests.conftest import ROOT, copy_of_sample
 from tests.test_pipeline_sample import SAMPLE, run_cli
 
 
@@ -23,11 +23,10 @@ def sample_run(tmp, **tuning):
 
 
 @pytest.fixture(scope="module")
-def filtered(tmp_path_factory):
+def filtered(tmp_path_factory, finished_sample):
+    """A copy of the finished sample run (conftest.py): the tests tune it again with their settings."""
     tmp = tmp_path_factory.mktemp("tune")
-    path = sample_run(tmp)
-    res = run_cli("identify", path)
-    assert res.returncode == 0, res.stderr
+    copy_of_sample(finished_sample, tmp)
     return tmp
 
 

@@ -7,6 +7,7 @@ import sys
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 
 from seatune.validation.score import bank_metrics, confusion, score_trial, verdict
 
@@ -94,20 +95,30 @@ def test_a_trial_row_and_the_bank_figures_by_hand():
     assert conf.loc["clean", "moonpool"] == 1 and conf.loc["clean", "none"] == 1 and conf.values.sum() == 3
 
 
-def test_make_validate_on_the_ci_bank(tmp_path):
-    """The same code path as `make validate` on six short trials of both hulls (clean, effects, compound)."""
+CI_PAIR = ["ci_osv_clean_000", "ci_barge_imu_misalignment_005"]  # both hulls; a clean trial and an effect
+
+
+@pytest.mark.parametrize("trials", [CI_PAIR, pytest.param(None, marks=pytest.mark.slow)], ids=["pair", "all"])
+def test_make_validate_on_the_ci_bank(tmp_path, trials):
+    """The same code path as `make validate` on short trials of both hulls: two by default, the ci subset's four
+    (clean, an effect, a compound; the three hindcast layouts) in `make test-slow`."""
     bank, out = tmp_path / "bank", tmp_path / "validation"
     gen = subprocess.run([sys.executable, "-m", "seatune.simulate.independent.bank", "--out", str(bank),
-                          "--subset", "ci", "--workers", "2"], capture_output=True, text=True)
+                          "--subset", "ci", "--workers", "2", *(["--only", *trials] if trials else [])],
+                         capture_output=True, text=True)
     assert gen.returncode == 0, gen.stderr[-2000:]
+    manifest = yaml.safe_load((bank / "manifest.yaml").read_text())
+    manifest["runs"] = [r for r in manifest["runs"] if not trials or r["name"] in trials]
+    (bank / "manifest.yaml").write_text(yaml.safe_dump(manifest))
+    n = len(manifest["runs"])
     res = subprocess.run([sys.executable, "-m", "seatune.validation", "--bank", str(bank), "--out", str(out),
                           "--workers", "2"], capture_output=True, text=True)
     assert res.returncode == 0, res.stderr[-3000:]
     assert "trials scored" in res.stdout
     summary = pd.read_parquet(out / "bank_summary.parquet")
-    assert len(summary) == 6 and (summary["status"] == "ok").all(), summary[["trial", "message"]]
+    assert len(summary) == n and (summary["status"] == "ok").all(), summary[["trial", "message"]]
     assert set(summary["hull"]) == {"osv", "barge"}
-    assert confusion(summary).values.sum() == 6
+    assert confusion(summary).values.sum() == n
     # the model's coupled modes at the true loading are the independent generator's roots (issue 21)
     for d in ("heave", "roll", "pitch"):
         assert summary[f"omega_{d}_model_rel_error"].abs().max() < 0.005

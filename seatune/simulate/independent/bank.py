@@ -7,9 +7,9 @@ and any one trial can be regenerated alone. ``full``: 62 trials — 24 clean (8 
 hindcast misses), 6 per hidden effect (quadratic_roll_damping, moonpool, anti_roll_tank, imu_lever_arm — 3 of
 them the half-ship-length reference-origin mistake — imu_misalignment) and 8 compound trials with two effects;
 hulls alternate (OSV, barge), 3–12 windows of 20–45 min, headings, seas and hindcast layouts drawn.
-``ci``: 6 short trials (3 windows of 20–22 min): clean on both hulls (one with a missing swell), one effect per
-hull, one compound. Writes ``OUT/manifest.yaml`` (a ``seatune batch`` manifest) and ``OUT/bank.yaml``
-(the list with categories and generation seconds).
+``ci``: 4 short trials (3 windows of 20–22 min): clean on both hulls (one with a missing swell), one effect,
+one compound; the three hindcast layouts. Writes ``OUT/manifest.yaml`` (a ``seatune batch`` manifest) and
+``OUT/bank.yaml`` (the list with categories and generation seconds).
 """
 
 from __future__ import annotations
@@ -159,14 +159,14 @@ def definitions(subset: str = "full") -> list[dict]:
     """The bank as a list of make_spec keyword sets (cheap: nothing drawn yet)."""
     rows = []
     if subset == "ci":
-        plan = [("osv", "clean", [], dict(layout="bulk")),
-                ("barge", "clean", [], dict(missing_swell=True, layout="partitions")),
-                ("osv", "quadratic_roll_damping", ["quadratic_roll_damping"], dict(layout="d2fd")),
-                ("barge", "moonpool", ["moonpool"], dict(layout="bulk")),
-                ("osv", "compound", ["anti_roll_tank", "imu_lever_arm"], dict(layout="partitions",
-                                                                              origin_mistake=True)),
-                ("barge", "imu_misalignment", ["imu_misalignment"], dict(layout="d2fd"))]
-        for i, (hull, cat, effs, kw) in enumerate(plan):
+        # (index, …): 2 and 3 (an OSV with quadratic roll damping, a barge with a moonpool) were dropped to keep
+        # `make test` within its time; the rest keep their seeds
+        plan = [(0, "osv", "clean", [], dict(layout="bulk")),
+                (1, "barge", "clean", [], dict(missing_swell=True, layout="partitions")),
+                (4, "osv", "compound", ["anti_roll_tank", "imu_lever_arm"], dict(layout="partitions",
+                                                                                 origin_mistake=True)),
+                (5, "barge", "imu_misalignment", ["imu_misalignment"], dict(layout="d2fd"))]
+        for i, hull, cat, effs, kw in plan:
             rows.append(dict(trial=f"ci_{hull}_{cat}_{i:03d}", index=900 + i, hull=hull, category=cat,
                              effects=effs, n_windows=3, short=True, **kw))
         return rows
