@@ -297,9 +297,14 @@ class Diagnoser:
 
     def run(self, effects, phi_before: np.ndarray | str | None = None, max_named: int = 1) -> Diagnosis:
         """Greedy forward selection (issue 17): fit every candidate, name the strongest eligible one, add it to the
-        model and fit the others with it (its parameters refitted jointly), until none passes or `max_named` are
-        named. `phi_before`: the tuned loading the gap is measured from (default the start); "refit": the loading
-        refitted here without any effect (what a tuning on these windows gives)."""
+        model and fit the others with it (its parameters refitted jointly), until none passes or `max_named` vessel
+        effects are named. A sea-side correction does not count: the sea gets one, and vessel effects are then
+        sought on top of it (on the blind bank a named swell or spreading had hidden a moonpool, a misalignment and
+        a lever arm). From the second step on, the model with the effect added must also help out of sample
+        (held-out gap and σ error below the tuned model's); at the first step that stays a report, since there it
+        would drop half the correct names.
+        `phi_before`: the tuned loading the gap is measured from (default the start); "refit": the loading refitted
+        here without any effect (what a tuning on these windows gives)."""
         wave_given = self.data.wave
         base = self._base_fit()
         if isinstance(phi_before, str):
@@ -313,7 +318,8 @@ class Diagnoser:
         rows = [self._row(base, base, 1, ctx)]
         named: list[Fit] = []
         step_base, bands_now = base, found
-        while len(named) < max_named:
+        while sum(_members(f)[-1][0].name not in SEA_SIDE for f in named) < max_named and len(named) <= max_named:
+            # (at most one sea-side correction: _may_follow)
             given = _members(step_base)
             left = [e for e in candidates if e.name not in {g.name for g, _ in given}
                     and _may_follow(e.name, given, rows)]
@@ -362,7 +368,9 @@ class Diagnoser:
                 "gain_train": gain_t, "gain_holdout": gain_h, "bic_penalty": penalty,
                 "joint_gain_train": ctx.base.nll_train - f.nll_train,
                 "joint_gain_holdout": ctx.base.nll_holdout - f.nll_holdout, "at_bound": edge, "score": score,
-                "eligible": bool(added > 0 and strong and not edge), "selected": False,
+                "eligible": bool(added > 0 and strong and not edge
+                                 and (step == 1 or helps_out_of_sample(ctx.gaps[f.effect]) is not False)),
+                "selected": False,
                 "false_alarm_p": np.nan, "null_gain_q95": np.nan}
 
     def _base_fit(self) -> Fit:
@@ -477,6 +485,15 @@ def turned(wave: np.ndarray, d_dir_deg: np.ndarray) -> np.ndarray:
         f = sh - k
         out[w] = (1 - f) * np.roll(wave[w], k, axis=1) + f * np.roll(wave[w], k + 1, axis=1)
     return out
+
+
+def helps_out_of_sample(gaps: dict) -> bool | None:
+    """Whether the held-out gap and σ error both fall with a row's effects (issue 17); None without held-out
+    windows."""
+    if not np.isfinite(gaps["gap_holdout_before"]):
+        return None
+    return bool(gaps["gap_holdout_after"] < gaps["gap_holdout_before"]
+                and gaps["sigma_error_holdout_after"] <= gaps["sigma_error_holdout_before"])
 
 
 def _score(gain_train: float, gain_holdout: float, bic_penalty: float) -> float:

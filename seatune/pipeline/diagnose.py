@@ -186,12 +186,11 @@ def diagnosis_table(diag, effects) -> pd.DataFrame:
 
 def out_of_sample(gaps: dict) -> str:
     """'helps' when the held-out gap and σ error both fall with the row's effects, else 'fits training only'
-    (issue 17); reported, not a condition for naming (on the trial bank it would drop correct names)."""
-    if not np.isfinite(gaps["gap_holdout_before"]):
-        return "no held-out window"
-    helps = (gaps["gap_holdout_after"] < gaps["gap_holdout_before"]
-             and gaps["sigma_error_holdout_after"] <= gaps["sigma_error_holdout_before"])
-    return "helps" if helps else "fits training only"
+    (issue 17; a condition for naming from the second step on, diagnosis/select.py)."""
+    from seatune.diagnosis.select import helps_out_of_sample
+
+    helps = helps_out_of_sample(gaps)
+    return "no held-out window" if helps is None else "helps" if helps else "fits training only"
 
 
 def residual_table(data, diag) -> pd.DataFrame:
