@@ -57,12 +57,13 @@ def window_set(vessel, windows, states, roles, hs_error, tp_error=None, beta_err
 
 def trial(vessel, effect: str | tuple[str, ...] | None, seed: int, n_windows: int = 9, duration_s: float = 1800.0,
           hs_rel_std: float = 0.05, tp_std_s: float = 0.0, dir_std_deg: float = 0.0, null=None, effects=None,
-          max_named: int = 1):
+          max_named: int = 1, swell: dict | None = None):
     """(Diagnosis, truth φ) of one trial; every third window is held out. The model's sea state is the truth with
     hindcast errors: Hs × e^N(0, hs_rel_std), Tp + N(0, tp_std_s), β + N(0, dir_std_deg). `effect`: one name or
-    a tuple of names (a compound trial)."""
+    a tuple of names (a compound trial). `swell` {"hs", "tp", "beta_deg"}: a swell in every window that the model's
+    sea lacks (the headings are all 0, so its β is its compass direction's)."""
     rng = np.random.default_rng(seed)
-    states = sea_states(rng, n_windows)
+    states = [{**s, "swell": swell} if swell else s for s in sea_states(rng, n_windows)]
     hidden = None if effect is None else [EFFECTS[e] for e in ((effect,) if isinstance(effect, str) else effect)]
     windows = simulate_windows(vessel, TRUTH, hidden, states, CHANNELS, duration_s, rng,
                                welch_segment_s=SEGMENT_S)

@@ -65,8 +65,8 @@ def _at_beta(xi: np.ndarray, grid: np.ndarray, beta_deg: float) -> np.ndarray:
 def simulate_windows(vessel, truth: dict, effect: dict | list[dict] | None, sea_states: list[dict], channels: list[str],
                      duration_s: float, rng, dt: float = 0.5, welch_segment_s: float = 256.0,
                      snr: float = 50.0, series: bool = False) -> list[dict]:
-    """One window per sea state {"hs", "tp", "beta_deg", "gamma"=3.3}: Welch spectra of the channels, with one
-hidden effect or a list of them (at most one of each kind).
+    """One window per sea state {"hs", "tp", "beta_deg", "gamma"=3.3, optionally "swell": a second system of the
+same keys}: Welch spectra of the channels, with one hidden effect or a list of them (at most one of each kind).
 
     Returns per window {"hs", "tp", "beta_deg", "omega" [rad/s], "S" (nch, nf) [unit²·s/rad], "dof",
     "sigma" (nch,), "channels"}; with `series`, also "x" (T, nch), the noisy time series.
@@ -92,19 +92,24 @@ hidden effect or a list of them (at most one of each kind).
     nperseg = min(int(round(welch_segment_s / dt)), n)
     out = []
     for sea in sea_states:
-        omega = edges[:-1] + rng.uniform(0.0, 1.0, N_COMPONENTS) * d_omega
-        a = np.sqrt(jonswap(omega, sea["hs"], sea["tp"], sea.get("gamma", 3.3)) * d_omega)
-        a = a * (rng.normal(size=N_COMPONENTS) + 1j * rng.normal(size=N_COMPONENTS))
-        if attached:
-            xi = augmented_raos(db, loading, omega, [EFFECTS[k].extra_dof(db, loading, omega, params[k])
-                                                     for k in attached])[0]
-        else:
-            xi = motion_raos_at(db, loading, omega)
-        xi_b = _at_beta(xi, grid, sea["beta_deg"]) * a[:, None]  # (N, 6) complex amplitude of each component
-        t_vec = transfer_vectors(chans, omega, np.array([draft]), db.g)[0]  # (N, 6, nch)
-        coeff = np.einsum("nd,ndc->nc", xi_b, t_vec)
+        omegas, coeffs, rolls = [], [], []
+        for system in [sea, *([sea["swell"]] if sea.get("swell") else [])]:  # a swell: a second long-crested system
+            omega = edges[:-1] + rng.uniform(0.0, 1.0, N_COMPONENTS) * d_omega
+            a = np.sqrt(jonswap(omega, system["hs"], system["tp"], system.get("gamma", 3.3)) * d_omega)
+            a = a * (rng.normal(size=N_COMPONENTS) + 1j * rng.normal(size=N_COMPONENTS))
+            if attached:
+                xi = augmented_raos(db, loading, omega, [EFFECTS[k].extra_dof(db, loading, omega, params[k])
+                                                         for k in attached])[0]
+            else:
+                xi = motion_raos_at(db, loading, omega)
+            xi_b = _at_beta(xi, grid, system["beta_deg"]) * a[:, None]  # (N, 6) complex amplitude of each component
+            t_vec = transfer_vectors(chans, omega, np.array([draft]), db.g)[0]  # (N, 6, nch)
+            omegas.append(omega)
+            coeffs.append(np.einsum("nd,ndc->nc", xi_b, t_vec))
+            rolls.append(xi_b[:, 3])
+        omega, coeff = np.concatenate(omegas), np.concatenate(coeffs)
         if rc is not None:
-            coeff = np.concatenate([coeff, (-1j * omega * xi_b[:, 3])[:, None]], axis=1)  # + roll rate
+            coeff = np.concatenate([coeff, (-1j * omega * np.concatenate(rolls))[:, None]], axis=1)  # + roll rate
         x = np.empty((n, coeff.shape[1]))
         for s in range(0, n, _CHUNK):
             x[s:s + _CHUNK] = (np.exp(-1j * np.outer(t[s:s + _CHUNK], omega)) @ coeff).real

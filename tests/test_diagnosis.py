@@ -221,6 +221,48 @@ def test_a_parameter_at_its_search_bound_widens_to_the_hull_limit(sample_model):
     assert fit.effect_used.parameters[2].upper == pytest.approx(0.2 * a_wp)
 
 
+def test_a_missing_swell_is_found_from_any_side(sample_model):
+    """A swell the model's sea lacks, in expected spectra without noise: the fit's start scans the swell's height
+    with its period and direction (a scan at a few centimetres cannot tell directions apart and stopped on a
+    local optimum 180° off), so it ends at the planted swell from whichever compass quarter it comes."""
+    from seatune.diagnosis.effects import MissingSwell
+
+    rng = np.random.default_rng(5)
+    states = trials.sea_states(rng, 6)
+    windows = trials.simulate_windows(sample_model, trials.TRUTH, None, states, trials.CHANNELS, 900.0, rng)
+    data = trials.window_set(sample_model, windows, states, ["train", "train", "holdout"] * 2, np.ones(6))
+    truth_phi = np.array([trials.TRUTH[p.name] for p in trials.PARAMETERS])
+    diag = Diagnoser(sample_model, trials.PARAMETERS, data, truth_phi)
+    base_measured = diag.model.spectra(truth_phi)
+    for direction in (60.0, 150.0, 290.0):
+        planted = {"hs": 1.5, "tp": 14.0, "dir_from_deg": direction}
+        data.measured = diag.model.spectra(truth_phi, MissingSwell(), planted)
+        assert np.abs(np.log(data.measured / base_measured)).max() > 1.0  # the swell is there to be found
+        diag._base = None
+        diag.fit(None)
+        fit = diag.fit(MissingSwell())
+        assert fit.params["hs"] == pytest.approx(1.5, rel=0.05), (direction, fit.params)
+        assert fit.params["tp"] == pytest.approx(14.0, rel=0.05), (direction, fit.params)
+        assert abs((fit.params["dir_from_deg"] - direction + 180.0) % 360.0 - 180.0) < 10.0, (direction, fit.params)
+
+
+@pytest.mark.slow
+def test_a_vessel_effect_is_named_behind_a_missing_swell(sample_model):
+    """A moonpool in a sea with a swell the model's sea lacks (time-domain trial): the swell is named first, as the
+    sea-side correction, and the moonpool on top of it (a sea-side name does not use up max_effects); both fits
+    come out near the simulator's and the joint model halves the held-out gap."""
+    d, _ = trials.trial(sample_model, "moonpool", 0, swell={"hs": 1.5, "tp": 14.0, "beta_deg": 120.0})
+    assert d.named == "missing_swell+moonpool", d.named
+    fitted = dict((e.name, p) for e, p in d.named_effects)
+    swell, moonpool = fitted["missing_swell"], fitted["moonpool"]
+    assert swell["hs"] == pytest.approx(1.5, rel=0.15) and swell["tp"] == pytest.approx(14.0, rel=0.1), swell
+    assert abs((swell["dir_from_deg"] - 60.0 + 180.0) % 360.0 - 180.0) < 15.0, swell  # β 120° at heading 0
+    assert moonpool["omega_p"] == pytest.approx(trials.EFFECTS["moonpool"]["omega_p"], rel=0.03), moonpool
+    assert moonpool["area"] == pytest.approx(trials.EFFECTS["moonpool"]["area"], rel=0.25), moonpool
+    gaps = d.gaps[d.named]
+    assert gaps["gap_holdout_after"] <= 0.5 * gaps["gap_holdout_before"], gaps
+
+
 @pytest.mark.slow
 def test_hidden_effect_trials_over_many_seeds(sample_model):
     """Issue 8's acceptance over 10 seeds per effect (random headings and sea states) and 10 clean trials."""
