@@ -61,7 +61,7 @@ def trial(vessel, effect: str | tuple[str, ...] | None, seed: int, n_windows: in
     """(Diagnosis, truth φ) of one trial; every third window is held out. The model's sea state is the truth with
     hindcast errors: Hs × e^N(0, hs_rel_std), Tp + N(0, tp_std_s), β + N(0, dir_std_deg). `effect`: one name or
     a tuple of names (a compound trial). `swell` {"hs", "tp", "beta_deg"}: a swell in every window that the model's
-    sea lacks (the headings are all 0, so its β is its compass direction's)."""
+    sea lacks (the headings are all 0: one from D arrives at β = −D − 180°, DESIGN §3)."""
     rng = np.random.default_rng(seed)
     states = [{**s, "swell": swell} if swell else s for s in sea_states(rng, n_windows)]
     hidden = None if effect is None else [EFFECTS[e] for e in ((effect,) if isinstance(effect, str) else effect)]

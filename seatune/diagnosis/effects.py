@@ -329,6 +329,7 @@ class MissingSwell(Effect):
     name = "missing_swell"
     signature = ("a swell the hindcast misses: a low-frequency excess below the wind sea in all channels, "
                  "its direction fixed on the compass whatever the heading")
+    # the start scans heights too: at the initial 5 cm every direction looks alike
     parameters = (EffectParameter("hs", "m", 0.05, 0.02, 4.0, scan=(0.3, 1.0, 2.0)),
                   EffectParameter("tp", "s", 14.0, 8.0, 25.0, scan=(10.0, 13.0, 16.0, 20.0)),
                   EffectParameter("dir_from_deg", "deg", 180.0, -360.0, 720.0, scan=tuple(np.arange(0.0, 360.0, 45.0))))
