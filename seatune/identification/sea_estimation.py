@@ -169,7 +169,7 @@ def _partition_factors(omega: np.ndarray, dirs_from_deg: np.ndarray, x: np.ndarr
     s1 = _pm_shape(u) * gamma[:, None] ** _peak_exponent(u, 0.07, 0.09) * (hs**2 / (wp * norm))[:, None]  # (P, nω)
     s = np.maximum(2.0 / spread**2 - 1.0, 0.0)
     theta = np.radians(dirs_from_deg[None, :] - x[:, 2:3])
-    d = np.clip(np.cos(0.5 * theta), 0.0, None) ** (2.0 * s[:, None])  # cos-2s, unnormalised
+    d = np.abs(np.cos(0.5 * theta)) ** (2.0 * s[:, None])  # cos-2s, unnormalised; |·| makes it 2π-periodic
     d_dir = TWO_PI / dirs_from_deg.size
     d /= np.maximum(d.sum(axis=1, keepdims=True), 1e-300) * d_dir
     return s1, d
