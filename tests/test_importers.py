@@ -27,7 +27,7 @@ from capytaine.io.xarray import export_dataset, separate_complex_values  # noqa:
 
 RHO, G = 1025.0, 9.81
 OMEGA = [0.3, 0.6, 1.0, 1.5]
-BETA = [0.0, 0.3, np.pi / 2, np.pi]
+BETA = list(np.arange(6) * np.pi / 3)  # equally spaced over the full circle from 0, as seatune needs
 COG = (0.5, 0.0, 1.0)  # off the origin so that every weight term is non-zero but C56
 X_B = 1.0  # box centred 1 m forward of the origin: x_b = 1 m, so C_b46 != 0
 
@@ -208,7 +208,7 @@ def _check_capytaine_db(db, ds, buoyancy_ref):
     d4 = ("influenced_dof", "radiating_dof")
     assert db.drafts.tolist() == [2.0]
     assert_allclose(db.omega, OMEGA, rtol=0)
-    assert_allclose(db.wave_direction, BETA, rtol=0)
+    assert_allclose(db.wave_direction, BETA, rtol=0, atol=1e-12)
     assert_allclose(db.added_mass[0], _sel(ds.added_mass, OMEGA, *d4), rtol=1e-12)
     assert_allclose(db.radiation_damping[0], _sel(ds.radiation_damping, OMEGA, *d4), rtol=1e-12)
     assert_allclose(db.added_mass_inf[0], ds.added_mass.sel(omega=np.inf).transpose(*d4).values, rtol=1e-12)
@@ -304,3 +304,20 @@ def test_imported_hull_through_vessel_yaml_gives_capytaine_gm(capy, tmp_path, so
     c44 = float(ds.hydrostatic_stiffness.sel(influenced_dof="Roll", radiating_dof="Roll"))
     assert info["gmt_m"] == pytest.approx(c44 / (mass * G), rel=1e-5)
     assert info["draft_m"] == 2.0
+
+
+def test_wamit_half_circle_is_mirrored_to_capytaines_full_circle(capy, tmp_path):
+    """0…180° of the (port–starboard symmetric) box, mirrored: Capytaine's own 240°, 300° (the 7 printed digits)."""
+    ds, _ = capy
+    mass, cog = _mass_cog(ds)
+    full = read_wamit(_export(ds, tmp_path, "full"), draft=2.0, mass=mass, center_of_mass=cog)
+    half = read_wamit(_export(ds.isel(wave_direction=slice(0, 4)), tmp_path, "half"), draft=2.0, mass=mass,
+                      center_of_mass=cog)
+    assert_allclose(half.wave_direction, BETA, rtol=0, atol=1e-12)
+    assert_allclose(half.excitation_force[0, :, 4:], _sel(ds.excitation_force, OMEGA, "wave_direction",
+                                                          "influenced_dof")[:, 4:], rtol=1e-6)
+    assert_allclose(half.excitation_force, full.excitation_force, rtol=1e-6)
+    with pytest.raises(UserError, match="not equally spaced") as err:
+        read_wamit(_export(ds.isel(wave_direction=slice(0, 3)), tmp_path, "third"), draft=2.0, mass=mass,
+                   center_of_mass=cog)
+    assert err.value.source == str(tmp_path / "third.3")

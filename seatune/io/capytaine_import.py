@@ -27,7 +27,7 @@ import numpy as np
 import xarray as xr
 
 from seatune.errors import UserError
-from seatune.physics.hydro import DOFS, HydroDatabase
+from seatune.physics.hydro import DOFS, DirectionGridError, HydroDatabase
 from seatune.physics.loading import skew
 from seatune.physics.loading import weight_stiffness as physics_weight_stiffness
 
@@ -63,9 +63,12 @@ def read_capytaine_dataset(path_or_dataset, *, draft: float | None = None) -> Hy
         source = str(path_or_dataset)
         ds = _open(Path(path_or_dataset))
     ds = _merge_complex(ds)
-    if "buoyancy_stiffness" in ds:
-        return _from_seatune_layout(ds, source, draft)
-    return _from_capytaine_layout(ds, source, draft)
+    try:
+        if "buoyancy_stiffness" in ds:
+            return _from_seatune_layout(ds, source, draft)
+        return _from_capytaine_layout(ds, source, draft)
+    except DirectionGridError as err:
+        raise UserError(source, "wave_direction", str(err)) from None
 
 
 def read_capytaine_files(paths) -> HydroDatabase:

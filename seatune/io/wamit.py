@@ -36,7 +36,7 @@ import numpy as np
 
 from seatune.errors import UserError
 from seatune.io.capytaine_import import center_of_buoyancy_from_stiffness, weight_stiffness
-from seatune.physics.hydro import HydroDatabase
+from seatune.physics.hydro import DirectionGridError, HydroDatabase
 
 _ROT = np.arange(6) >= 3
 _K_RADIATION = 3 + _ROT[:, None] + _ROT[None, :]  # Ā = A/(ρ L^k)
@@ -94,13 +94,16 @@ def read_wamit(prefix, *, draft: float, rho: float = 1025.0, g: float = 9.81, le
     attrs.update(weight_terms_from=origin, weight_terms_mass=m, weight_terms_center_of_mass=np.asarray(cog),
                  disp_volume="mass / rho (free floating)",
                  center_of_buoyancy_z="unknown: not recoverable from the WAMIT .hst file")
-    return HydroDatabase(
-        drafts=np.array([float(draft)]), omega=omega, wave_direction=np.deg2rad(betas_deg),
-        added_mass=added_mass[None], radiation_damping=damping[None], added_mass_inf=added_mass_inf[None],
-        excitation_force=excitation[None], buoyancy_stiffness=buoyancy[None], disp_volume=np.array([volume]),
-        center_of_buoyancy=center_of_buoyancy_from_stiffness(buoyancy, volume, rho, g)[None],
-        rho=float(rho), g=float(g), water_depth=float(water_depth), attrs=attrs,
-    )
+    try:
+        return HydroDatabase(
+            drafts=np.array([float(draft)]), omega=omega, wave_direction=np.deg2rad(betas_deg),
+            added_mass=added_mass[None], radiation_damping=damping[None], added_mass_inf=added_mass_inf[None],
+            excitation_force=excitation[None], buoyancy_stiffness=buoyancy[None], disp_volume=np.array([volume]),
+            center_of_buoyancy=center_of_buoyancy_from_stiffness(buoyancy, volume, rho, g)[None],
+            rho=float(rho), g=float(g), water_depth=float(water_depth), attrs=attrs,
+        )
+    except DirectionGridError as err:
+        raise UserError(str(paths[".3"]), "BETA", str(err)) from None
 
 
 # ----------------------------------------------------------------------------------------------------------------------
