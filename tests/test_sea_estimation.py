@@ -358,6 +358,63 @@ def test_a_swell_crossing_the_hindcast_swell_at_its_period_is_split_off(tmp_path
     assert not found["in_hindcast"] and abs(found["hs"] / 0.9 - 1) < 0.3
 
 
+def test_the_sea_refitted_through_a_named_lever_arm_loses_the_bias_the_arm_gave_it(tmp_path):
+    """An IMU 48 m aft of where the vessel YAML puts it (the origin mistake of the blind bank): through the model
+    without the arm the horizontal and vertical specific forces at the wind sea's period are the wrong size, and
+    the sea fit makes up for it in Hs (bank: the wind sea 14–55 % high). diagnose refits the sea through its
+    augmented vessel (sea_states_diagnosed.parquet); here that vessel is given the true arm (independent path:
+    Capytaine RAOs, the IMU by rigid-body kinematics at the true point)."""
+    import yaml
+
+    from seatune.io.run_yaml import Run
+    from seatune.pipeline.diagnose import DIAGNOSED_SEA_FILE
+    from seatune.pipeline.sea import sea_stage, system_table
+    from seatune.pipeline.tune import vessel_yaml_data
+    from seatune.pipeline.vessel import open_run_vessel, open_vessel
+
+    arm = {"kind": "imu_lever_arm", "dx": -48.0, "dy": 0.0, "dz": 0.0}
+    spec = make_spec(trial="arm", index=11, hull="osv", category="imu_lever_arm", effects=[], n_windows=1)
+    seas = [[TruePartition("wind_sea", 1.8, 7.0, 40.0, 3.3, "cos2s", 25.0),
+             TruePartition("swell", 1.2, 12.0, 250.0, 3.0, "cos2s", 12.0)]]
+    hindcast = {**spec.hindcast, "layout": "partitions", "missing_swell": False, "hs_rel_error": 0.05,
+                "tp_error_s": 0.3, "dir_error_deg": 4.0, "time_dim": "time"}
+    spec = replace(spec, seas=seas, effects=[arm], window_minutes=[40.0], headings_deg=[200.0],
+                   transit_minutes=[3.0], hindcast=hindcast)
+    truth = trial.generate(spec, tmp_path)
+    folder = tmp_path / "arm"
+    exe = Path(sys.executable).with_name("seatune")
+    res = subprocess.run([str(exe), "sea", "run.yaml"], cwd=folder, capture_output=True, text=True)
+    assert res.returncode == 0, res.stdout + res.stderr
+    run = Run(folder / "run.yaml")
+    augmented = vessel_yaml_data(open_run_vessel(run)) | {"effects": [arm]}  # as diagnose writes it
+    aug_path = folder / "run" / "augmented_vessel.yaml"
+    aug_path.write_text(yaml.safe_dump(augmented))
+    sea_stage(run, open_vessel(aug_path), force=True, artefact=DIAGNOSED_SEA_FILE, vessel_path=aug_path)
+
+    true = truth["windows"][0]["partitions"]
+    true_total = np.sqrt(sum(p["hs"] ** 2 for p in true))
+
+    def systems_of(name):
+        systems = system_table(pd.read_parquet(folder / "run" / name))
+        print(name, systems[["kind", "hs", "tp", "dir_from_deg"]].round(2).to_dict("records"))
+        return systems
+
+    before, after = systems_of("sea_states.parquet"), systems_of(DIAGNOSED_SEA_FILE)
+    # seen: before 2.68 m in three systems (the wind sea split in two), after 1.66 m from 43° and 1.22 m from 248°
+    assert np.sqrt((before["hs"] ** 2).sum()) / true_total - 1 > 0.15
+    assert abs(np.sqrt((after["hs"] ** 2).sum()) / true_total - 1) < 0.10
+    for p in true:
+        near = after[((after["tp"] / p["tp"] - 1).abs() < 0.15)
+                     & (after["dir_from_deg"].map(lambda x, d=p["dir_from_deg"]: _angle(x, d)) < 15.0)]
+        assert len(near) == 1 and abs(near["hs"].iloc[0] / p["hs"] - 1) < 0.10, (p, after)
+    assert (folder / "run" / "sea_states_roll_free.parquet").is_file()  # the sea stage's own files are kept
+    from seatune.pipeline.report import sea_refit_hs  # the report's table of the two
+
+    table = sea_refit_hs(run, pd.read_parquet(folder / "run" / DIAGNOSED_SEA_FILE))
+    assert np.allclose(table[["hs", "hs_refit"]].to_numpy(),
+                       [[np.sqrt((before["hs"] ** 2).sum()), np.sqrt((after["hs"] ** 2).sum())]])
+
+
 def _window_estimate(prior, hs, tp, dir_from, std):
     from seatune.identification.sea_estimation import SeaEstimate
 

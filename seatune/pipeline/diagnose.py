@@ -229,8 +229,40 @@ def augmented_vessel_yaml(vessel, diag, path: Path) -> None:
         tmp.write_text(yaml.safe_dump(data, sort_keys=False, allow_unicode=True))
 
 
+DIAGNOSED_SEA_FILE = "sea_states_diagnosed.parquet"  # the sea re-estimated with the named effects
+
+
+def sea_with_effects(run, parameters, phi, augmented: Path, echo=print) -> dict:
+    """Each window's sea fitted again through the augmented vessel (the named effects, the loading refitted with
+    them): an effect the sea stage's model lacked (an IMU lever arm's specific forces, a tank's roll) had been
+    absorbed by the sea. The loading belief: the refitted values with the tune's posterior std (the prior's for
+    the parameters diagnose adds)."""
+    from dataclasses import replace
+
+    from seatune.pipeline.sea import posterior_parameters, sea_stage, window_hs
+    from seatune.pipeline.vessel import open_vessel, with_mass_aliases
+
+    post = {p.name: p.prior_std for p in posterior_parameters(run, open_vessel(run.vessel_path))}
+    belief = []
+    for p, value in zip(parameters, phi, strict=True):
+        room = 1e-6 * (p.upper - p.lower) if np.isfinite(p.upper - p.lower) else 1e-9
+        belief.append(replace(p, prior_mean=float(np.clip(value, p.lower + room, p.upper - room)),
+                              prior_std=post.get(p.name, p.prior_std)))
+    tuned = with_mass_aliases(run.spec.tuning.parameters)
+    known = {k: v for k, v in run.spec.identify.known.items() if k not in tuned}
+    model = open_vessel(augmented).with_loading(**known)
+    summary = sea_stage(run, model, echo=echo, force=True, parameters=belief, artefact=DIAGNOSED_SEA_FILE,
+                        vessel_path=augmented)
+    hs0, hs1 = (window_hs(pd.read_parquet(run.artefact(n))) for n in ("sea_states.parquet", DIAGNOSED_SEA_FILE))
+    change = (hs1.reindex(hs0.index) / hs0 - 1).dropna()
+    if len(change):
+        echo(f"diagnose: the sea refitted through the named effects ({DIAGNOSED_SEA_FILE}): window Hs "
+             f"{100 * change.median():+.1f} % (median), {100 * change.min():+.1f} to {100 * change.max():+.1f} %")
+    return summary
+
+
 def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
-    from seatune.diagnosis.effects import EFFECT_NAMES, library
+    from seatune.diagnosis.effects import EFFECT_NAMES, SEA_SIDE, library
     from seatune.diagnosis.residuals import describe
     from seatune.diagnosis.select import Diagnoser
     from seatune.io.parquet import write_table
@@ -274,8 +306,12 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     meta = {"fingerprint": fp}
     if diag.winner is not None:
         augmented_vessel_yaml(vessel, diag, augmented)
-    elif augmented.exists():
-        augmented.unlink()  # a previous diagnosis' effect no longer holds
+    else:
+        augmented.unlink(missing_ok=True)  # a previous diagnosis' effect no longer holds
+    if run.spec.sea.estimate and any(e.name not in SEA_SIDE for e, _ in diag.named_effects):
+        sea_with_effects(run, parameters, diag.winner.phi, augmented, echo)
+    else:  # no vessel effect named: the sea stage's model stands
+        run.artefact(DIAGNOSED_SEA_FILE).unlink(missing_ok=True)
     write_table(residual_table(data, diag), outs[1], RESIDUAL_UNITS, meta)
     write_table(table, outs[0], DIAGNOSIS_UNITS, meta)
     chosen = table[table["selected"]]

@@ -239,9 +239,11 @@ def partition_rows(window_id: str, est, heading_deg: float, channels, priors, fi
     return rows
 
 
-def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> dict:
+def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, artefact: str = "sea_states.parquet",
+              vessel_path=None) -> dict:
     """`parameters`: the loading belief whose RAOs (mean and ±√3σ design) the fit uses; default the priors of
-    the tuned parameters (the alternation passes the tuned posterior)."""
+    the tuned parameters (the alternation passes the tuned posterior). `artefact` other than sea_states.parquet
+    (diagnose's DIAGNOSED_FILE): only the full fit, with the vessel read from `vessel_path`."""
     from seatune.errors import UserError
     from seatune.io.hindcast_readers import read_hindcast
     from seatune.io.motion_table import MotionTable
@@ -251,11 +253,14 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
 
     settings = run.spec.sea
     src = [run.artefact("motions.parquet"), run.artefact("windows.parquet")]
-    out = run.artefact("sea_states.parquet")
+    out = run.artefact(artefact)
+    main = artefact == "sea_states.parquet"
     fp = fingerprint(
-        src + [run.hindcast_path, run.vessel_path],
+        src + [run.hindcast_path, vessel_path or run.vessel_path],
         {
-            "stage": "sea",
+            "stage": "sea" if main else artefact,
+            "parameters_given": None if parameters is None or main else [(p.name, p.prior_mean, p.prior_std)
+                                                                         for p in parameters],
             "sea": settings.model_dump(),
             "uncertainty": run.spec.hindcast.uncertainty.model_dump(),
             "parameters": list(run.spec.tuning.parameters),
@@ -263,8 +268,8 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
         },
     )
     out_roll = run.artefact(ROLL_FREE_FILE)
-    outs = ([out, out_roll] if settings.roll_free else [out]) if settings.estimate else []
-    for path in {out, out_roll} - set(outs):  # left from a run with other settings
+    outs = ([out, out_roll] if settings.roll_free and main else [out]) if settings.estimate else []
+    for path in {out, out_roll} - set(outs) if main else ():  # left from a run with other settings
         path.unlink(missing_ok=True)
     if not settings.estimate:
         return {"skipped": True, "disabled": True}
@@ -282,7 +287,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
     design = design_loadings(vessel, parameters if parameters is not None else tuning_parameters(run, vessel))
     fs = run.spec.ingest.rate_hz
     keep = [k for k, c in enumerate(channels) if not _shows_roll(vessel.channel(c))]
-    roll_free = settings.roll_free and 2 <= len(keep) < len(channels)
+    roll_free = settings.roll_free and main and 2 <= len(keep) < len(channels)
     without_roll = [channels[k] for k in keep]
     inputs = []  # (window id, heading, x, hindcast priors)
     for row in windows[windows["accepted"]].sort_values("start").itertuples():
@@ -320,14 +325,14 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None) -> 
     rows = fit_all(channels, slice(None))
     rows_roll = fit_all(without_roll, keep) if roll_free else []
     table = pd.DataFrame(rows, columns=list(SEA_UNITS))
-    if settings.roll_free:  # empty when too few channels remain without roll: identify then takes the full fit
+    if settings.roll_free and main:  # empty when too few channels remain without roll: identify takes the full fit
         write_table(pd.DataFrame(rows_roll, columns=list(SEA_UNITS)), out_roll, SEA_UNITS, {"fingerprint": fp})
     write_table(table, out, SEA_UNITS, {"fingerprint": fp})
     systems = system_table(table)
     added = systems[~systems["in_hindcast"]] if len(systems) else systems
     ratio = (
         (
-            _window_hs(systems)
+            window_hs(systems)
             / systems.groupby("window_id")["hindcast_total_hs"].first()
         )
         if len(systems)
@@ -401,12 +406,12 @@ def alternate(run, vessel, stages, echo=print) -> list[dict]:
     windows' Hs and the largest parameter move in posterior standard deviations."""
     rounds = []
     for k in range(2, run.spec.sea.iterations + 1):
-        hs0 = _window_hs(pd.read_parquet(run.artefact("sea_states.parquet")))
+        hs0 = window_hs(pd.read_parquet(run.artefact("sea_states.parquet")))
         post0 = posterior_parameters(run, vessel)
         sea_stage(run, vessel, echo=echo, force=True, parameters=post0)
         stages["identify"](True)
         stages["tune"](True)
-        hs1 = _window_hs(pd.read_parquet(run.artefact("sea_states.parquet")))
+        hs1 = window_hs(pd.read_parquet(run.artefact("sea_states.parquet")))
         post1 = posterior_parameters(run, vessel)
         dhs = float(np.nanmedian(np.abs(hs1.reindex(hs0.index) / hs0 - 1)))
         move = max(abs(a.prior_mean - b.prior_mean) / b.prior_std for a, b in zip(post1, post0, strict=True))
@@ -418,7 +423,7 @@ def alternate(run, vessel, stages, echo=print) -> list[dict]:
     return rounds
 
 
-def _window_hs(sea: pd.DataFrame) -> pd.Series:
+def window_hs(sea: pd.DataFrame) -> pd.Series:
     return sea.groupby("window_id")[["hs", "hs_std"]].apply(lambda part: combined_hs(part)[0])
 
 
