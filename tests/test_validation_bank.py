@@ -129,5 +129,15 @@ def test_make_validate_on_the_ci_bank(tmp_path, trials):
             "tuned_model_mode_within_2pct"} <= set(metrics["metric"])
     clean = summary[summary["category"] == "clean"]
     assert clean["r44_true_sea_std"].gt(0).all()  # each clean trial tuned once more with its true sea
+    from seatune.diagnosis.effects import SEA_SIDE
+    from seatune.validation.__main__ import run_dir
+
+    for entry in manifest["runs"]:  # the sea refitted through the augmented vessel when a vessel effect is named
+        rd = run_dir(bank / entry["name"])
+        diag = pd.read_parquet(rd / "diagnosis.parquet")
+        vessel_side = {e for e in diag.loc[diag["selected"].astype(bool), "effect"] if e not in (*SEA_SIDE, "none")}
+        assert (rd / "sea_states_diagnosed.parquet").is_file() == bool(vessel_side), entry["name"]
+    sea_groups = metrics.loc[metrics["metric"] == "sea_wind_hs_within_10pct", "group"]
+    assert set(sea_groups) == {"wind sea", "wind sea (sea stage)"}
     assert "Figures against the targets" in (out / "index.html").read_text()
     assert (out / "fleet" / "fleet_summary.parquet").is_file()

@@ -19,7 +19,8 @@ import yaml
 
 from seatune.errors import UserError
 
-ARTEFACTS = ("tuning_history", "validation", "natural_frequencies", "diagnosis", "sea_states")
+ARTEFACTS = ("tuning_history", "validation", "natural_frequencies", "diagnosis", "sea_states",
+             "sea_states_diagnosed")
 
 
 def read_bank(bank: Path) -> list[tuple[str, Path]]:
@@ -115,7 +116,10 @@ def score_bank(bank: Path, references: dict[Path, dict] | None = None) -> tuple[
         rows.append(score_trial(truth, arts, model_modes_at_truth(truth, folder, cache), status, message,
                                 tuned_model_modes(rd), (references or {}).get(folder)))
         windows = pd.read_parquet(rd / "windows.parquet") if (rd / "windows.parquet").is_file() else None
-        sea += sea_rows(truth, arts.get("sea_states"), windows)
+        # the sea seatune delivers: refitted through the named vessel effects when diagnose named one
+        final = arts["sea_states_diagnosed"] if arts["sea_states_diagnosed"] is not None else arts["sea_states"]
+        for estimate, table in (("final", final), ("sea stage", arts["sea_states"])):
+            sea += [{**r, "estimate": estimate} for r in sea_rows(truth, table, windows)]
     return pd.DataFrame(rows), pd.DataFrame(sea)
 
 
@@ -145,7 +149,9 @@ def main(argv=None) -> int:
                 return 2
         references = true_sea_references(args.bank, args.workers) if not args.no_reference else None
         summary, sea = score_bank(args.bank, references)
-        metrics = pd.concat([bank_metrics(summary), sea_metrics(sea)], ignore_index=True)
+        metrics = pd.concat([bank_metrics(summary), *(sea_metrics(sea[sea["estimate"] == e], e)
+                                                      for e in ("final", "sea stage") if len(sea))],
+                            ignore_index=True)
         conf = confusion(summary)
         args.out.mkdir(parents=True, exist_ok=True)
         write_table(summary, args.out / "bank_summary.parquet", summary_units(summary.columns))

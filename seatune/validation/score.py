@@ -180,11 +180,14 @@ def sea_rows(truth: dict, sea: pd.DataFrame | None, windows: pd.DataFrame | None
     return rows
 
 
-def sea_metrics(sea: pd.DataFrame) -> pd.DataFrame:
-    """Issue 16's sea figures over the bank's windows."""
+def sea_metrics(sea: pd.DataFrame, estimate: str = "final") -> pd.DataFrame:
+    """Issue 16's sea figures over the bank's windows; targets on the `final` estimate (refitted through the
+    named vessel effects), the sea stage's own estimate beside it (its groups say so)."""
     out = []
 
     def add(metric, group, value, n, target=None):
+        if estimate != "final":
+            group, target = f"{group} ({estimate})", None
         out.append({"metric": metric, "group": group, "value": value, "n": n, "target": target,
                     "passed": None if target is None or not np.isfinite(value) else bool(value >= target)})
 
