@@ -21,20 +21,31 @@ from seatune.errors import UserError
 from seatune.physics.spectra import omnidirectional
 from seatune.pipeline.filter import STATS_UNITS
 from seatune.pipeline.identify import NF_UNITS, RAO_UNITS
-from seatune.pipeline.sea import read_sea_states
+from seatune.pipeline.sea import read_sea_states, window_hs
 from seatune.pipeline.windows import rejection_counts
 
 REQUIRED = ("motions.parquet", "waves.parquet", "windows.parquet", "window_stats.parquet", "raos.parquet",
             "natural_frequencies.parquet")
 OPTIONAL = ("window_spectra.parquet", "sea_states.parquet", "tuning_history.parquet", "validation.parquet",
-            "tuned_vessel.yaml", "diagnosis.parquet", "diagnosis_residuals.parquet", "prediction.parquet")
+            "tuned_vessel.yaml", "diagnosis.parquet", "diagnosis_residuals.parquet", "sea_states_diagnosed.parquet",
+            "prediction.parquet")
 # What each stage after windows writes: left out of the page when the stage did not run this time
 STAGE_ARTEFACTS = {"filter": ("window_stats.parquet", "window_spectra.parquet"), "sea": ("sea_states.parquet",),
                    "identify": ("raos.parquet", "natural_frequencies.parquet"),
                    "tune": ("tuning_history.parquet", "validation.parquet", "tuned_vessel.yaml"),
-                   "diagnose": ("diagnosis.parquet", "diagnosis_residuals.parquet")}
+                   "diagnose": ("diagnosis.parquet", "diagnosis_residuals.parquet", "sea_states_diagnosed.parquet")}
 SPECTRUM_OMEGA_MAX = 2.5  # rad/s: the response spectra plotted up to here (or the database's last frequency)
 TRACK_COLUMNS = ["time", "record", "lat", "lon", "sog", "heading_deg"]
+
+
+def sea_refit_hs(run, refit: pd.DataFrame | None) -> pd.DataFrame | None:
+    """Per window Hs of the sea stage's estimate and of diagnose's refit through the named effects."""
+    sea = read_sea_states(run)
+    if refit is None or sea is None:
+        return None
+    hs0, hs1 = window_hs(sea).reindex(pd.unique(sea["window_id"])), window_hs(refit)  # in time order
+    return pd.DataFrame({"window_id": hs0.index.astype(str), "hs": hs0.to_numpy(),
+                         "hs_refit": hs1.reindex(hs0.index).to_numpy()})
 
 
 def html_fingerprint(path: Path) -> str | None:
@@ -190,6 +201,7 @@ def report_stage(run, vessel, echo=print, force: bool = False, not_run: dict[str
         diagnosis=pd.read_parquet(diag_path) if diagnosed else None,
         diagnosis_units=column_units(diag_path) if diagnosed else {},
         diagnosis_residuals=optional("diagnosis_residuals.parquet"),
+        sea_refit_hs=sea_refit_hs(run, optional("sea_states_diagnosed.parquet")),
         sea_states=None if "sea_states.parquet" in left_out else read_sea_states(run), not_run=not_run,
         artefacts=[(p.name, p.stat().st_size, recorded_fingerprint(p) or "") for p in sorted(run.run_dir.iterdir())
                    if p.is_file() and not p.name.startswith(".") and p.name not in ("report.html", "summary.parquet")])

@@ -200,6 +200,14 @@ def sea_section(inp: ReportInputs) -> str | None:
     body += H.table(t, units, caption="Partitions of the estimated sea (sea_states.parquet): the hindcast's value "
                     "beside the estimate and its standard deviation; a system absent from the hindcast has no "
                     "hindcast value", digits=3, row_class=lambda r: "" if r["in hindcast"] else "rejected")
+    refit = inp.sea_refit_hs
+    if refit is not None and not refit.empty:
+        t = pd.DataFrame({"window": "W" + refit["window_id"].astype(str), "Hs": refit["hs"],
+                          "Hs through the named effects": refit["hs_refit"]})
+        body += H.table(t, {"Hs": "m", "Hs through the named effects": "m"}, digits=3,
+                        caption="Each window's Hs (√Σ Hs² of its partitions) as the sea stage estimated it, and "
+                        "refitted through the vessel with diagnose's named effects (sea_states_diagnosed.parquet): "
+                        "an effect the sea stage's model lacked had partly been taken for sea")
     added = sea[~sea["in_hindcast"]]
     return H.section("sea", "Sea state: hindcast and the sea from the ship", body,
                      f"Every stage after this one uses the estimated sea. {len(added)} partition(s) in "
