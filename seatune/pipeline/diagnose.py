@@ -232,7 +232,7 @@ def augmented_vessel_yaml(vessel, diag, path: Path) -> None:
 DIAGNOSED_SEA_FILE = "sea_states_diagnosed.parquet"  # the sea re-estimated with the named effects
 
 
-def sea_with_effects(run, parameters, phi, augmented: Path, echo=print) -> dict:
+def sea_with_effects(run, vessel, parameters, phi, augmented: Path, echo=print) -> dict:
     """Each window's sea fitted again through the augmented vessel (the named effects, the loading refitted with
     them): an effect the sea stage's model lacked (an IMU lever arm's specific forces, a tank's roll) had been
     absorbed by the sea. The loading belief: the refitted values with the tune's posterior std (the prior's for
@@ -242,7 +242,7 @@ def sea_with_effects(run, parameters, phi, augmented: Path, echo=print) -> dict:
     from seatune.pipeline.sea import posterior_parameters, sea_stage, window_hs
     from seatune.pipeline.vessel import open_vessel, with_mass_aliases
 
-    post = {p.name: p.prior_std for p in posterior_parameters(run, open_vessel(run.vessel_path))}
+    post = {p.name: p.prior_std for p in posterior_parameters(run, vessel)}
     belief = []
     for p, value in zip(parameters, phi, strict=True):
         room = 1e-6 * (p.upper - p.lower) if np.isfinite(p.upper - p.lower) else 1e-9
@@ -309,7 +309,7 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     else:
         augmented.unlink(missing_ok=True)  # a previous diagnosis' effect no longer holds
     if run.spec.sea.estimate and any(e.name not in SEA_SIDE for e, _ in diag.named_effects):
-        sea_with_effects(run, parameters, diag.winner.phi, augmented, echo)
+        sea_with_effects(run, vessel, parameters, diag.winner.phi, augmented, echo)
     else:  # no vessel effect named: the sea stage's model stands
         run.artefact(DIAGNOSED_SEA_FILE).unlink(missing_ok=True)
     write_table(residual_table(data, diag), outs[1], RESIDUAL_UNITS, meta)

@@ -243,7 +243,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
               vessel_path=None) -> dict:
     """`parameters`: the loading belief whose RAOs (mean and ±√3σ design) the fit uses; default the priors of
     the tuned parameters (the alternation passes the tuned posterior). `artefact` other than sea_states.parquet
-    (diagnose's DIAGNOSED_FILE): only the full fit, with the vessel read from `vessel_path`."""
+    (diagnose's DIAGNOSED_SEA_FILE): only the full fit, with the vessel read from `vessel_path`."""
     from seatune.errors import UserError
     from seatune.io.hindcast_readers import read_hindcast
     from seatune.io.motion_table import MotionTable
