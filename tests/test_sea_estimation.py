@@ -410,7 +410,8 @@ def test_the_sea_refitted_through_a_named_lever_arm_loses_the_bias_the_arm_gave_
     assert (folder / "run" / "sea_states_roll_free.parquet").is_file()  # the sea stage's own files are kept
     from seatune.pipeline.report import sea_refit_hs  # the report's table of the two
 
-    table = sea_refit_hs(run, pd.read_parquet(folder / "run" / DIAGNOSED_SEA_FILE))
+    table = sea_refit_hs(pd.read_parquet(folder / "run" / "sea_states.parquet"),
+                         pd.read_parquet(folder / "run" / DIAGNOSED_SEA_FILE))
     assert np.allclose(table[["hs", "hs_refit"]].to_numpy(),
                        [[np.sqrt((before["hs"] ** 2).sum()), np.sqrt((after["hs"] ** 2).sum())]])
 

@@ -240,7 +240,7 @@ def sea_with_effects(run, vessel, parameters, phi, augmented: Path, echo=print) 
     from dataclasses import replace
 
     from seatune.pipeline.sea import posterior_parameters, sea_stage, window_hs
-    from seatune.pipeline.vessel import open_vessel, with_mass_aliases
+    from seatune.pipeline.vessel import open_run_vessel
 
     post = {p.name: p.prior_std for p in posterior_parameters(run, vessel)}
     belief = []
@@ -248,11 +248,8 @@ def sea_with_effects(run, vessel, parameters, phi, augmented: Path, echo=print) 
         room = 1e-6 * (p.upper - p.lower) if np.isfinite(p.upper - p.lower) else 1e-9
         belief.append(replace(p, prior_mean=float(np.clip(value, p.lower + room, p.upper - room)),
                               prior_std=post.get(p.name, p.prior_std)))
-    tuned = with_mass_aliases(run.spec.tuning.parameters)
-    known = {k: v for k, v in run.spec.identify.known.items() if k not in tuned}
-    model = open_vessel(augmented).with_loading(**known)
-    summary = sea_stage(run, model, echo=echo, force=True, parameters=belief, artefact=DIAGNOSED_SEA_FILE,
-                        vessel_path=augmented)
+    summary = sea_stage(run, open_run_vessel(run, augmented), echo=echo, force=True, parameters=belief,
+                        artefact=DIAGNOSED_SEA_FILE, vessel_path=augmented)
     hs0, hs1 = (window_hs(pd.read_parquet(run.artefact(n))) for n in ("sea_states.parquet", DIAGNOSED_SEA_FILE))
     change = (hs1.reindex(hs0.index) / hs0 - 1).dropna()
     if len(change):

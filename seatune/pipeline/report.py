@@ -38,9 +38,8 @@ SPECTRUM_OMEGA_MAX = 2.5  # rad/s: the response spectra plotted up to here (or t
 TRACK_COLUMNS = ["time", "record", "lat", "lon", "sog", "heading_deg"]
 
 
-def sea_refit_hs(run, refit: pd.DataFrame | None) -> pd.DataFrame | None:
+def sea_refit_hs(sea: pd.DataFrame | None, refit: pd.DataFrame | None) -> pd.DataFrame | None:
     """Per window Hs of the sea stage's estimate and of diagnose's refit through the named effects."""
-    sea = read_sea_states(run)
     if refit is None or sea is None:
         return None
     hs0, hs1 = window_hs(sea).reindex(pd.unique(sea["window_id"])), window_hs(refit)  # in time order
@@ -179,6 +178,7 @@ def report_stage(run, vessel, echo=print, force: bool = False, not_run: dict[str
     windows, raos = pd.read_parquet(run.artefact("windows.parquet")), stage_table("raos.parquet", RAO_UNITS)
     history, diag_path = optional("tuning_history.parquet"), run.artefact("diagnosis.parquet")
     diagnosed = "diagnosis.parquet" not in left_out and diag_path.exists()
+    sea_states = None if "sea_states.parquet" in left_out else read_sea_states(run)
     dt = motions.period_s()
     step = max(int(round(1.0 / dt)), 1) if dt else 1  # the track at ~1 Hz
     inp = ReportInputs(
@@ -201,8 +201,8 @@ def report_stage(run, vessel, echo=print, force: bool = False, not_run: dict[str
         diagnosis=pd.read_parquet(diag_path) if diagnosed else None,
         diagnosis_units=column_units(diag_path) if diagnosed else {},
         diagnosis_residuals=optional("diagnosis_residuals.parquet"),
-        sea_refit_hs=sea_refit_hs(run, optional("sea_states_diagnosed.parquet")),
-        sea_states=None if "sea_states.parquet" in left_out else read_sea_states(run), not_run=not_run,
+        sea_refit_hs=sea_refit_hs(sea_states, optional("sea_states_diagnosed.parquet")),
+        sea_states=sea_states, not_run=not_run,
         artefacts=[(p.name, p.stat().st_size, recorded_fingerprint(p) or "") for p in sorted(run.run_dir.iterdir())
                    if p.is_file() and not p.name.startswith(".") and p.name not in ("report.html", "summary.parquet")])
     from seatune.io.hindcast_readers import read_hindcast

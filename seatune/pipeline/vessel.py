@@ -149,14 +149,15 @@ def with_mass_aliases(names) -> set:
     return names | {"mass", "displacement"} if names & {"mass", "displacement"} else names
 
 
-def open_run_vessel(run) -> VesselModel:
-    """The run's vessel with the run YAML's `identify.known` loading values (mass, zcg, … from the loading
-    computer) in its base condition for the parameters it does not tune: every stage then models them as known on
-    board instead of at the vessel YAML's design values (a KG 0.5 m off the YAML's would otherwise be tuned into
-    gmt_fs); a tuned parameter starts from its prior, as tune does."""
+def open_run_vessel(run, path: str | Path | None = None) -> VesselModel:
+    """The run's vessel (or the vessel YAML at `path`, e.g. diagnose's augmented one) with the run YAML's
+    `identify.known` loading values (mass, zcg, … from the loading computer) in its base condition for the
+    parameters it does not tune: every stage then models them as known on board instead of at the vessel YAML's
+    design values (a KG 0.5 m off the YAML's would otherwise be tuned into gmt_fs); a tuned parameter starts from
+    its prior, as tune does."""
     tuned = with_mass_aliases(run.spec.tuning.parameters)
     known = {k: v for k, v in run.spec.identify.known.items() if k not in tuned}
-    vessel = open_vessel(run.vessel_path)
+    vessel = open_vessel(path or run.vessel_path)
     try:
         return vessel.with_loading(**known)
     except UserError as err:  # the run YAML's values are at fault, not the vessel's
