@@ -157,6 +157,29 @@ def test_the_batched_jacobian_is_scipys_finite_difference():
     assert np.abs(ours - reference).max() < 1e-5 * np.abs(reference).max()
 
 
+def test_the_batched_search_costs_are_each_stacked_fits_residuals():
+    """The added partition's start search prices every grid cell in one batch; each cost must be ½Σr² of
+    `residuals` for the partitions with that cell stacked on, on random RAOs and a Welch-smoothed model."""
+    from seatune.diagnosis.model import welch_grid
+    from seatune.identification.sea_estimation import PartitionPrior, WelchWindow, _Problem, outer_raos
+
+    rng = np.random.default_rng(5)
+    bins, dirs = 0.3 + np.arange(27) * 2 * np.pi / 128.0, np.arange(72) * 5.0  # Welch bins of a 128 s segment
+    welch = WelchWindow(*welch_grid(bins, 128.0, refine=3, lobes=2))
+    h = rng.normal(size=(welch.omega.size, 72, 3)) + 1j * rng.normal(size=(welch.omega.size, 72, 3))
+    pairs = np.triu_indices(3, 1)
+    coh = 0.3 * (rng.normal(size=(27, 3)) + 1j * rng.normal(size=(27, 3)))
+    problem = _Problem(welch.omega, dirs, outer_raos(h), rng.normal(size=(27, 3)), coh, np.full(3, 1e-3),
+                       rng.uniform(0.2, 0.5, (27, 3)), rng.uniform(0.1, 0.3, (27, 3)), pairs, welch)
+    priors = [PartitionPrior(1.5, 8.0, 200.0)]
+    x = np.array([[np.log(1.2), np.log(7.5), 190.0, np.log(25.0), np.log(2.0)]])
+    added = np.array([[np.log(hs), np.log(tp), d, np.log(spread), np.log(3.3)]
+                      for hs in (0.3, 1.0) for tp in (6.0, 14.0) for d in (0.0, 90.0, 330.0) for spread in (20.0, 35.0)])
+    batched = problem.costs_with_added(x, priors, added)
+    one_by_one = [0.5 * np.sum(problem.residuals(np.vstack([x, a]).ravel(), [*priors, None]) ** 2) for a in added]
+    np.testing.assert_allclose(batched, one_by_one, rtol=1e-10)
+
+
 def test_two_shapes_of_one_peak_are_one_system():
     def part(hs, tp, d, spread=20.0):
         v = {"hs": hs, "tp": tp, "dir_from_deg": d, "spread_deg": spread, "gamma": 3.3}

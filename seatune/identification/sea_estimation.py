@@ -139,13 +139,22 @@ def direction_difference_deg(a, b):
 
 def cross_spectra(x: np.ndarray, fs: float, segment_s: float) -> tuple[np.ndarray, np.ndarray, float]:
     """Welch cross-spectral matrix of the channels in x (nch, n): ω [rad/s], Φ̂ (nω, nch, nch) one-sided in
-    rad/s (DESIGN §3), and its degrees of freedom ν (Welch 1967, Hann window with 50 % overlap)."""
+    rad/s (DESIGN §3), and its degrees of freedom ν (Welch 1967, Hann window with 50 % overlap).
+
+    scipy.signal.csd's estimate (Hann, 50 % overlap, linear detrend per segment, density scaling, mean over
+    segments), with each channel's segments transformed once instead of once per pair (nch² → nch FFTs)."""
     nper = int(min(round(segment_s * fs), x.shape[1]))
-    f, p = signal.csd(x[:, None, :], x[None, :, :], fs=fs, window="hann", nperseg=nper, noverlap=nper // 2,
-                      detrend="linear", axis=-1)  # scipy's conj(X_i)X_j is H_i H̄_j S for x = Re{X e^{−iωt}}
-    segments = max(1, (x.shape[1] - nper) // (nper - nper // 2) + 1)
+    step = nper - nper // 2
+    segs = np.lib.stride_tricks.sliding_window_view(x, nper, axis=-1)[:, ::step]  # (nch, K, nper)
+    window = signal.get_window("hann", nper)
+    spec = np.fft.rfft(signal.detrend(segs, type="linear", axis=-1) * window, axis=-1)  # (nch, K, nf)
+    # scipy's conj(X_i)X_j is H_i H̄_j S for x = Re{X e^{−iωt}}
+    p = np.einsum("ikf,jkf->fij", spec.conj(), spec) / (segs.shape[1] * fs * float(window @ window))
+    p[1 : (None if nper % 2 else -1)] *= 2.0  # one-sided: all but DC (and Nyquist, for an even segment)
+    f = np.fft.rfftfreq(nper, 1.0 / fs)
+    segments = segs.shape[1]
     nu = 2.0 * segments / (1.0 + 2.0 * 0.167**2 * (segments - 1) / segments)  # Hann 50 %: ρ = 0.167
-    return TWO_PI * f, np.moveaxis(p, -1, 0) / TWO_PI, float(nu)
+    return TWO_PI * f, p / TWO_PI, float(nu)
 
 
 # ------------------------------------------------------------------------- parametric sea
@@ -244,9 +253,10 @@ class _Problem:
         return np.concatenate(r)
 
     def jacobian(self, x_flat: np.ndarray, priors: list[PartitionPrior | None], lower, upper) -> np.ndarray:
-        """Forward differences of `residuals`, batched: a step of one partition's coordinate changes only that
-        partition's spectrum, and Φ is linear in the spectrum, so every column is one (nω, nD) × G product of a
-        single stacked call instead of a whole residual evaluation per column."""
+        """Forward differences of `residuals`, batched: Φ is linear in the spectrum S = Σ_p s1_p ⊗ d_p, and a step
+        in a partition's Hs, Tp or γ changes its frequency spectrum s1_p only (ΔΦ = Δs1_p · d_p G), in its
+        direction or spread its spreading d_p only (ΔΦ = s1_p · Δd_p G): 3 products per partition with the RAOs'
+        G = H Hᴴ instead of a whole residual evaluation per column."""
         x = x_flat.reshape(-1, 5)
         n_part = len(x)
         step = 1.49e-8 * np.maximum(1.0, np.abs(x_flat))  # √ε relative, as scipy's 2-point scheme
@@ -256,11 +266,15 @@ class _Problem:
         s1_0, d_0 = _partition_factors(self.omega, self.dirs, x)
         s1, d = _partition_factors(self.omega, self.dirs, moved)
         base = np.repeat(np.arange(n_part), 5)
-        d_wave = s1[:, :, None] * d[:, None, :] - s1_0[base][:, :, None] * d_0[base][:, None, :]  # (5P, nω, nD)
-        phi0 = model_cross_spectra(self.g, s1_0.T @ d_0)
-        nd = self.g.shape[1]
-        d_phi = np.moveaxis(d_wave, 0, 1) @ self.g  # (nω, 5P, nch²)
-        phi = phi0[None] + np.moveaxis(d_phi, 1, 0) * (TWO_PI / nd)
+        in_freq = np.flatnonzero(np.tile([True, True, False, False, True], n_part))  # Hs, Tp, γ
+        in_dir = np.flatnonzero(np.tile([False, False, True, True, False], n_part))  # direction, spread
+        scale = TWO_PI / self.g.shape[1]
+        q = d_0 @ self.g  # (nω, P, nch²): each partition's spreading through G
+        phi0 = (s1_0.T[:, None, :] @ q)[:, 0, :] * scale
+        d_phi = np.empty((self.omega.size, x.size, self.g.shape[2]))
+        d_phi[:, in_freq] = (s1[in_freq] - s1_0[base[in_freq]]).T[:, :, None] * q[:, base[in_freq]]
+        d_phi[:, in_dir] = s1_0[base[in_dir]].T[:, :, None] * ((d[in_dir] - d_0[base[in_dir]]) @ self.g)
+        phi = phi0[None] + np.moveaxis(d_phi, 1, 0) * scale
         phi0, phi = self.at_bins(phi0), self.at_bins(phi)
         log0, coh0 = self.statistics(phi0)
         log_q, coh_q = self.statistics(phi)
@@ -274,6 +288,23 @@ class _Problem:
             rows = data.shape[1] + 5 * k + np.arange(5)
             jac[rows, 5 * k + np.arange(5)] = np.where(np.isfinite(std), 1.0 / std, 0.0)
         return jac
+
+    def costs_with_added(self, x: np.ndarray, priors: list[PartitionPrior | None], added: np.ndarray) -> np.ndarray:
+        """½Σr² of the partitions x (P, 5) with their priors and one free partition (no prior) more, for each row of
+        `added` (n, 5) in turn: (n,), as `residuals` of each stacked (x, added row). Φ is linear in the spectrum, so
+        the added partitions' Φ come from one batched product on top of x's."""
+        phi_x = model_cross_spectra(self.g, partition_spectrum(self.omega, self.dirs, x))
+        s1, _ = _partition_factors(self.omega, self.dirs, added)
+        _, first, which = np.unique(added[:, 2:4], axis=0, return_index=True, return_inverse=True)
+        _, d = _partition_factors(self.omega, self.dirs, added[first])  # the spreading of each distinct one
+        dg = np.moveaxis(d @ self.g, 1, 0) * (TWO_PI / self.g.shape[1])  # (n shapes, nω, nch²)
+        log_auto, coh = self.statistics(self.at_bins(phi_x[None] + s1[:, :, None] * dg[which.ravel()]))
+        cost = ((((self.log_auto - log_auto) / self.auto_std) ** 2).sum(axis=(1, 2))
+                + (((self.coh.real - coh.real) / self.coh_std) ** 2).sum(axis=(1, 2))
+                + (((self.coh.imag - coh.imag) / self.coh_std) ** 2).sum(axis=(1, 2)))
+        fixed = self.residuals(x.ravel(), list(priors))[self.n_data:]  # x's prior terms, the same for every row
+        free = np.where(np.isfinite(_FREE_STD), (added - _FREE_MEAN) / _FREE_STD, 0.0)  # direction: no prior
+        return 0.5 * (cost + np.sum(fixed**2) + np.sum(free**2, axis=1))
 
     @staticmethod
     def mask(anchor: np.ndarray, steady_pairs: np.ndarray) -> np.ndarray:
@@ -308,16 +339,13 @@ def _search_added(problem: _Problem, x: np.ndarray, priors, min_hs: float, start
     """Starting points of an added partition: the best cells of a (Tp, direction, Hs) grid with the others
     fixed, at least 90° apart in direction (the heave/pitch fore–aft mirror is a second minimum), and the splits
     of broad partitions (`_split_starts`)."""
-    cells = []
-    for tp in (5.0, 7.0, 9.5, 12.0, 15.0, 19.0):
-        for d in np.arange(0.0, 360.0, 30.0):
-            for hs in (max(min_hs, 0.3), 1.0):
-                cand = np.vstack([x, [np.log(hs), np.log(tp), d, np.log(20.0), np.log(3.3)]])
-                cells.append((0.5 * np.sum(problem.residuals(cand.ravel(), [*priors, None]) ** 2), d, cand))
+    grid = np.array([[np.log(hs), np.log(tp), d, np.log(20.0), np.log(3.3)] for tp in (5.0, 7.0, 9.5, 12.0, 15.0, 19.0)
+                     for d in np.arange(0.0, 360.0, 30.0) for hs in (max(min_hs, 0.3), 1.0)])
     chosen = []
-    for _, d, cand in sorted(cells, key=lambda c: c[0]):
+    for k in np.argsort(problem.costs_with_added(x, priors, grid), kind="stable"):
+        d = float(grid[k, 2])
         if all(direction_difference_deg(d, e) >= 90.0 for e, _ in chosen):
-            chosen.append((d, cand))
+            chosen.append((d, np.vstack([x, grid[k]])))
         if len(chosen) == starts:
             break
     return [c for _, c in chosen] + _split_starts(x)
