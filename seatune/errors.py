@@ -10,3 +10,6 @@ class UserError(Exception):
         self.source, self.place, self.problem = source, place, problem
         where = ": ".join(p for p in (source, place) if p)
         super().__init__(f"{where}: {problem}" if where else problem)
+
+    def __reduce__(self):  # from a worker process (seatune.parallel) the error comes back pickled
+        return type(self), (self.source, self.place, self.problem)

@@ -22,6 +22,7 @@ import copy
 import dataclasses
 import itertools
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 from scipy.optimize import minimize
@@ -30,6 +31,7 @@ from scipy.special import digamma, polygamma
 from seatune.diagnosis import residuals as res
 from seatune.diagnosis.effects import SEA_SIDE, Compound
 from seatune.diagnosis.model import SpectralModel, WindowSet, spectra_in_sea
+from seatune.parallel import map_tasks
 from seatune.physics.response import trapezoid_weights
 
 BIN_CORRELATION = 1.5  # Hann window's equivalent noise bandwidth [bins]
@@ -325,7 +327,8 @@ class Diagnoser:
                     and _may_follow(e.name, given, rows)]
             if not left:
                 break
-            fits = [self.fit(Compound(given, e) if given else e, bands_now, start=step_base) for e in left]
+            fits = map_tasks(partial(self._fit_candidate, given, bands_now, step_base), left,
+                             cost=lambda e: len(e.parameters))  # the three-parameter candidates first
             step_rows = [self._row(f, step_base, len(named) + 1, ctx) for f in fits]
             if self.null is not None and self.null.replicates > 0:
                 self._calibrate(step_rows, step_base, wave_given)
@@ -342,6 +345,9 @@ class Diagnoser:
         return Diagnosis(rows=rows, winner=winner, base=base, phi_before=phi_before, bands_before=found,
                          bands_after=ctx.left, residual_before=(r0, sd0), residual_after=(r1, sd1), gaps=ctx.gaps,
                          parameter_names=tuple(p.name for p in self.parameters))
+
+    def _fit_candidate(self, given, bands, step_base: Fit, effect) -> Fit:
+        return self.fit(Compound(given, effect) if given else effect, bands, start=step_base)
 
     def _row(self, f: Fit, step_base: Fit, step: int, ctx: _Context) -> dict:
         """One candidate at one step: its gains over the step's model (the effects named so far), its joint gains

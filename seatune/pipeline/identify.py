@@ -335,93 +335,131 @@ def natural_frequency_rows(model, per_window: list[dict], prior_omega: dict[str,
     loadings and the combined ω_n's interval widened by 1.96 · `loading_std` = √Σ_j ½((ω(+σ_j) − ω)² + (ω(−σ_j) − ω)²),
     which, unlike a central difference, keeps an effect even in the parameter (xcg on a symmetric hull). Every
     window shares the loading, so this term does not average down."""
-    from seatune.identification.natural_frequency import spectrum_peak
-    from seatune.identification.rao_estimation import chi2_interval, energetic_band
+    return natural_frequency_rows_many(model, [(per_window, prior_omega, loading, spread)], settings)[0]
+
+
+def natural_frequency_rows_many(model, jobs: list[tuple], settings) -> list[list[dict]]:
+    """`natural_frequency_rows` of each (per_window, prior_omega, loading, spread) job, the modes of all jobs
+    fitted side by side (seatune.parallel)."""
+    from seatune.parallel import map_tasks
     from seatune.physics.modes import natural_frequencies
 
-    out = []
-    rng = settings.search_range
-    dof_row = {"Heave": 0, "Roll": 1, "Pitch": 2}
-    ref = natural_frequencies(model.db, loading)[0] if loading is not None else None
-    spread_ref = natural_frequencies(model.db, spread) if loading is not None and spread is not None else None
-    for dof, prior in prior_omega.items():
-        fits, peaks = [], []
-        skipped = {"no channel measures it": 0, "low-confidence window": 0,
-                   f"no wave energy at the prior ω_n {prior:.3f} rad/s": 0, "no resonance peak fitted": 0,
-                   "the model's own spectrum in this sea shows no resonance to fit": 0}
-        reasons = list(skipped)
-        for w in per_window:
-            if dof in w.get("sea_by_mode", {}):  # the mode's own sea (roll: fitted without the roll channels)
-                w = w | w["seas"][w["sea_by_mode"][dof]]
-            if dof not in w["modes"] or w["low_confidence"]:
-                skipped[reasons[0 if dof not in w["modes"] else 1]] += 1
-                continue
-            omega, S, nu = w["modes"][dof]
-            s_wave = np.interp(omega, w["omega"], w["s_wave"], left=0, right=0)
-            band = energetic_band(omega, s_wave, settings.band_fraction)
-            if not band.any() or not (omega[band].min() <= prior <= omega[band].max()):
-                skipped[reasons[2]] += 1
-                continue  # the waves do not reach this resonance
-            s_ff = excitation_spectra(model, w["draft"], omega, w["dirs"], _wave_on(w, omega), w["heading"])
-            s_ff = s_ff[dof_row[dof]]
-            ok = band & (s_ff > 1e-12 * s_ff.max()) & (S > 0)
-            lo_s, hi_s = chi2_interval(S, nu, settings.confidence)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                amp, lo, hi = np.sqrt(S / s_ff), np.sqrt(lo_s / s_ff), np.sqrt(hi_s / s_ff)
-            row = _fit_mode(omega[ok], amp[ok], lo[ok], hi[ok], s_wave[ok], prior, rng, w["tp_rel_std"]) \
-                if ok.sum() >= 5 else None
-            why = 3
-            if row is not None and loading is not None:
-                bias = partial(_model_bias, model, w=w, omega=omega[ok], amp=amp[ok], lo=lo[ok], hi=hi[ok],
-                               s_ff=s_ff[ok], s_wave=s_wave[ok], k=dof_row[dof], prior=prior, rng=rng)
-                raw, row = row, _debiased(row, bias(loading, ref[dof_row[dof]]))
-                if row is not None and spread_ref is not None:
-                    row["omega_by_loading"] = raw["omega_n"] / np.array(
-                        [bias(spread.take([i]), spread_ref[i, dof_row[dof]]) for i in range(len(spread))])
-                why = 4
-            if row is None:
-                skipped[reasons[why]] += 1
-            else:
-                fits.append({"dof": dof, "method": "admittance_peak_sdof", "window_id": w["window_id"],
-                             **row, "model_prior": prior})
-            if dof == "Roll":
-                pk = spectrum_peak(omega, S, (prior * (1 - rng), prior * (1 + rng)), "gaussian")
-                if pk.index >= 0:
-                    half = 0.5 * float(np.diff(omega).mean())  # grid resolution
-                    peaks.append({"dof": dof, "method": "response_spectrum_peak", "window_id": w["window_id"],
-                                  "omega_n": pk.omega, "ci_low": pk.omega - half, "ci_high": pk.omega + half,
-                                  "zeta": np.nan, "model_prior": prior})
-        for rows, method in ((fits, "admittance_peak_sdof"), (peaks, "response_spectrum_peak")):
-            combined = _combine(rows, dof, method, prior)
-            if combined and method == "admittance_peak_sdof" and spread_ref is not None:
-                combined = _with_loading_std(combined, rows, dof, prior)
-            out += rows + ([combined] if combined else [])
-        if not fits:  # never a silent omission: the row says why
-            why = "; ".join(f"{k} ({n} of {len(per_window)} windows)" for k, n in skipped.items() if n) \
-                or "no accepted window"
-            out.append({"dof": dof, "method": "admittance_peak_sdof", "window_id": "all", "omega_n": np.nan,
-                        "ci_low": np.nan, "ci_high": np.nan, "zeta": np.nan, "model_prior": prior,
-                        "reason": f"not identified: {why}"})
+    refs = [(natural_frequencies(model.db, loading)[0] if loading is not None else None,
+             natural_frequencies(model.db, spread) if loading is not None and spread is not None else None)
+            for _, _, loading, spread in jobs]
+    tasks = [(j, dof, prior) for j, (_, prior_omega, _, _) in enumerate(jobs) for dof, prior in prior_omega.items()]
+
+    def one(task):
+        j, dof, prior = task
+        per_window, _, loading, spread = jobs[j]
+        return _mode_rows(model, per_window, dof, prior, settings, loading, spread, *refs[j])
+
+    done = map_tasks(one, tasks, cost=lambda t: len(jobs[t[0]][0]) * (1 + len(jobs[t[0]][3] or ())))
+    out = [[] for _ in jobs]
+    for (j, _, _), rows in zip(tasks, done, strict=True):
+        out[j] += rows
     return out
 
 
-def with_sea_spread(rows: list[dict], model, per_window: list[dict], prior_omega: dict[str, float], settings,
-                    loading) -> list[dict]:
-    """`rows` with each combined admittance ω_n's interval widened by how far it moves when every window takes
-    another of its defensible seas (the hindcast's, the estimate from all channels, the estimate without roll):
-    `sea_std` = max |Δω| / √2 (the spread of two equally likely draws), added in quadrature at 1.96σ. Which sea
-    is right the data cannot say, and the choice is shared by every window, so it does not average down."""
+def _mode_rows(model, per_window, dof, prior, settings, loading, spread, ref, spread_ref) -> list[dict]:
+    """One DOF's rows of `natural_frequency_rows`; `ref`, `spread_ref`: the coupled modes at `loading`, `spread`."""
+    from seatune.identification.natural_frequency import spectrum_peak
+    from seatune.identification.rao_estimation import chi2_interval, energetic_band
+
+    rng = settings.search_range
+    dof_row = {"Heave": 0, "Roll": 1, "Pitch": 2}
+    out = []
+    fits, peaks = [], []
+    skipped = {"no channel measures it": 0, "low-confidence window": 0,
+               f"no wave energy at the prior ω_n {prior:.3f} rad/s": 0, "no resonance peak fitted": 0,
+               "the model's own spectrum in this sea shows no resonance to fit": 0}
+    reasons = list(skipped)
+    for w in per_window:
+        if dof in w.get("sea_by_mode", {}):  # the mode's own sea (roll: fitted without the roll channels)
+            w = w | w["seas"][w["sea_by_mode"][dof]]
+        if dof not in w["modes"] or w["low_confidence"]:
+            skipped[reasons[0 if dof not in w["modes"] else 1]] += 1
+            continue
+        omega, S, nu = w["modes"][dof]
+        s_wave = np.interp(omega, w["omega"], w["s_wave"], left=0, right=0)
+        band = energetic_band(omega, s_wave, settings.band_fraction)
+        if not band.any() or not (omega[band].min() <= prior <= omega[band].max()):
+            skipped[reasons[2]] += 1
+            continue  # the waves do not reach this resonance
+        s_ff = excitation_spectra(model, w["draft"], omega, w["dirs"], _wave_on(w, omega), w["heading"])
+        s_ff = s_ff[dof_row[dof]]
+        ok = band & (s_ff > 1e-12 * s_ff.max()) & (S > 0)
+        lo_s, hi_s = chi2_interval(S, nu, settings.confidence)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            amp, lo, hi = np.sqrt(S / s_ff), np.sqrt(lo_s / s_ff), np.sqrt(hi_s / s_ff)
+        row = _fit_mode(omega[ok], amp[ok], lo[ok], hi[ok], s_wave[ok], prior, rng, w["tp_rel_std"]) \
+            if ok.sum() >= 5 else None
+        why = 3
+        if row is not None and loading is not None:
+            bias = partial(_model_bias, model, w=w, omega=omega[ok], amp=amp[ok], lo=lo[ok], hi=hi[ok],
+                           s_ff=s_ff[ok], s_wave=s_wave[ok], k=dof_row[dof], prior=prior, rng=rng)
+            raw, row = row, _debiased(row, bias(loading, ref[dof_row[dof]]))
+            if row is not None and spread_ref is not None:
+                row["omega_by_loading"] = raw["omega_n"] / np.array(
+                    [bias(spread.take([i]), spread_ref[i, dof_row[dof]]) for i in range(len(spread))])
+            why = 4
+        if row is None:
+            skipped[reasons[why]] += 1
+        else:
+            fits.append({"dof": dof, "method": "admittance_peak_sdof", "window_id": w["window_id"],
+                         **row, "model_prior": prior})
+        if dof == "Roll":
+            pk = spectrum_peak(omega, S, (prior * (1 - rng), prior * (1 + rng)), "gaussian")
+            if pk.index >= 0:
+                half = 0.5 * float(np.diff(omega).mean())  # grid resolution
+                peaks.append({"dof": dof, "method": "response_spectrum_peak", "window_id": w["window_id"],
+                              "omega_n": pk.omega, "ci_low": pk.omega - half, "ci_high": pk.omega + half,
+                              "zeta": np.nan, "model_prior": prior})
+    for rows, method in ((fits, "admittance_peak_sdof"), (peaks, "response_spectrum_peak")):
+        combined = _combine(rows, dof, method, prior)
+        if combined and method == "admittance_peak_sdof" and spread_ref is not None:
+            combined = _with_loading_std(combined, rows, dof, prior)
+        out += rows + ([combined] if combined else [])
+    if not fits:  # never a silent omission: the row says why
+        why = "; ".join(f"{k} ({n} of {len(per_window)} windows)" for k, n in skipped.items() if n) \
+            or "no accepted window"
+        out.append({"dof": dof, "method": "admittance_peak_sdof", "window_id": "all", "omega_n": np.nan,
+                    "ci_low": np.nan, "ci_high": np.nan, "zeta": np.nan, "model_prior": prior,
+                    "reason": f"not identified: {why}"})
+    return out
+
+
+def sea_views(per_window: list[dict], prior_omega: dict[str, float]) -> list[tuple[list[dict], dict]] | None:
+    """The windows as each of their defensible seas sees them (the hindcast's, the estimate from all channels, the
+    estimate without roll), with the modes to fit there again: [(windows, {dof: prior ω_n})]; None: one sea only."""
     names = sorted({n for w in per_window for n in w.get("seas", {})})
     if len(names) < 2:
-        return rows
-    moved: dict[str, list[float]] = {}
+        return None
+    out = []
     for name in names:
         view = [w | w["seas"][name] | {"sea_by_mode": {}} for w in per_window if name in w.get("seas", {})]
         redo = {dof: omega for dof, omega in prior_omega.items()  # a mode already fitted in this sea moves nowhere
                 if len(view) < len(per_window) or any(_sea_name(w, dof) != name for w in per_window)}
-        for r in natural_frequency_rows(model, view, redo, settings, loading) if redo else []:
-            if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof" and np.isfinite(r["omega_n"]):
-                moved.setdefault(r["dof"], []).append(r["omega_n"])
+        if redo:
+            out.append((view, redo))
+    return out
+
+
+def with_sea_spread(rows: list[dict], model, per_window: list[dict], prior_omega: dict[str, float], settings,
+                    loading, redone: list[list[dict]] | None = None) -> list[dict]:
+    """`rows` with each combined admittance ω_n's interval widened by how far it moves when every window takes
+    another of its defensible seas (`sea_views`): `sea_std` = max |Δω| / √2 (the spread of two equally likely
+    draws), added in quadrature at 1.96σ. Which sea is right the data cannot say, and the choice is shared by every
+    window, so it does not average down. `redone`: the rows of each view, if already fitted."""
+    views = sea_views(per_window, prior_omega)
+    if views is None:
+        return rows
+    if redone is None:
+        redone = natural_frequency_rows_many(model, [(view, redo, loading, None) for view, redo in views], settings)
+    moved: dict[str, list[float]] = {}
+    for r in (r for rows_of in redone for r in rows_of):
+        if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof" and np.isfinite(r["omega_n"]):
+            moved.setdefault(r["dof"], []).append(r["omega_n"])
     out = []
     for r in rows:
         if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof" and np.isfinite(r["omega_n"]):
@@ -747,9 +785,12 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
     prior_omega = {dof: float(prior_nat[i]) for i, dof in enumerate(("Heave", "Roll", "Pitch"))}
     known = model.loading(**settings.known) if settings.known else prior
     center = known if settings.debias_modes else None  # the estimator's bias at the loading as far as it is known
-    rows = natural_frequency_rows(model, per_window, prior_omega, settings, center,
-                                  loading_spread(model, known, settings.known) if center is not None else None)
-    rows = with_sea_spread(rows, model, per_window, prior_omega, settings, center)
+    spread = loading_spread(model, known, settings.known) if center is not None else None
+    views = sea_views(per_window, prior_omega) or []  # every mode in every sea at once (seatune.parallel)
+    rows, *redone = natural_frequency_rows_many(
+        model, [(per_window, prior_omega, center, spread), *((view, redo, center, None) for view, redo in views)],
+        settings)
+    rows = with_sea_spread(rows, model, per_window, prior_omega, settings, center, redone)
     if settings.mode_posterior:
         from seatune.identification.natural_frequency import shifted_modes
 

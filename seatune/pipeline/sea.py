@@ -166,19 +166,28 @@ def raos_at(vessel, loading, channels, omega, dirs_from, heading_deg) -> np.ndar
 def estimate_window(
     vessel, design, channels, x: np.ndarray, fs: float, priors, settings, heading_deg: float, segment_s: float
 ):
-    """The SeaEstimate of one window from its motion channels x (nch, n). On one BLAS thread: the fit's arrays are
-    small (a ~1300 × 20 Jacobian with six channels), and threading them on two cores made it 4× slower."""
+    """The SeaEstimate of one window from its motion channels x (nch, n)."""
+    from seatune.identification.sea_estimation import cross_spectra
+
+    return estimate_from_spectra(vessel, design, channels, cross_spectra(x, fs, segment_s), priors, settings,
+                                 heading_deg, segment_s)
+
+
+def estimate_from_spectra(vessel, design, channels, spectra, priors, settings, heading_deg: float, segment_s: float):
+    """The SeaEstimate of one window from its channels' cross-spectra (ω, Φ̂, ν) (`cross_spectra`). On one BLAS
+    thread: the fit's arrays are small (a ~1300 × 20 Jacobian with six channels), and threading them on two cores
+    made it 4× slower."""
     from threadpoolctl import threadpool_limits
 
     with threadpool_limits(limits=1, user_api="blas"):
-        return _estimate_window(vessel, design, channels, x, fs, priors, settings, heading_deg, segment_s)
+        return _estimate_from_spectra(vessel, design, channels, spectra, priors, settings, heading_deg, segment_s)
 
 
-def _estimate_window(vessel, design, channels, x, fs, priors, settings, heading_deg, segment_s):
+def _estimate_from_spectra(vessel, design, channels, spectra, priors, settings, heading_deg, segment_s):
     from seatune.diagnosis.model import welch_grid
-    from seatune.identification.sea_estimation import WelchWindow, cross_spectra, estimate_sea
+    from seatune.identification.sea_estimation import WelchWindow, estimate_sea
 
-    omega, phi, nu = cross_spectra(x, fs, segment_s)
+    omega, phi, nu = spectra
     band = (omega >= max(settings.omega_min, vessel.db.omega[0])) & (
         omega <= min(settings.omega_max, vessel.db.omega[-1])
     )
@@ -197,6 +206,27 @@ def _estimate_window(vessel, design, channels, x, fs, priors, settings, heading_
         channel_names=channels,
         welch=welch,
     )
+
+
+def estimate_windows(vessel, design, channels, inputs, tasks, settings) -> list:
+    """SeaEstimates of (window, channel subset, priors) tasks, spread over the CPUs (seatune.parallel); `inputs`:
+    per window (id, heading, its channels' cross-spectra, hindcast priors). Each partition's prior is one of the
+    task's own prior objects again (a worker's come back as copies), as the stage matches them by identity."""
+    from dataclasses import replace
+
+    from seatune.identification.sea_estimation import Partition
+    from seatune.parallel import map_tasks
+
+    def one(task):
+        k, cols, priors = task
+        _, heading, (omega, phi, nu), _ = inputs[k]
+        est = estimate_from_spectra(vessel, design, [channels[c] for c in cols], (omega, phi[:, cols][:, :, cols], nu),
+                                    priors, settings, heading, settings.segment_s)
+        return est, [next((i for i, q in enumerate(priors) if q is p.prior), -1) for p in est.partitions]
+
+    return [replace(est, partitions=[Partition(p.value, p.std, priors[i] if i >= 0 else None)
+                                     for p, i in zip(est.partitions, index, strict=True)])
+            for (_, _, priors), (est, index) in zip(tasks, map_tasks(one, tasks), strict=True)]
 
 
 def partition_rows(window_id: str, est, heading_deg: float, channels, priors, fitted_priors) -> list[dict]:
@@ -245,6 +275,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
     the tuned parameters (the alternation passes the tuned posterior). `artefact` other than sea_states.parquet
     (diagnose's DIAGNOSED_SEA_FILE): only the full fit, with the vessel read from `vessel_path`."""
     from seatune.errors import UserError
+    from seatune.identification.sea_estimation import cross_spectra
     from seatune.io.hindcast_readers import read_hindcast
     from seatune.io.motion_table import MotionTable
     from seatune.io.parquet import write_table
@@ -289,7 +320,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
     keep = [k for k, c in enumerate(channels) if not _shows_roll(vessel.channel(c))]
     roll_free = settings.roll_free and main and 2 <= len(keep) < len(channels)
     without_roll = [channels[k] for k in keep]
-    inputs = []  # (window id, heading, x, hindcast priors)
+    inputs = []  # (window id, heading, cross-spectra of the channels, hindcast priors)
     for row in windows[windows["accepted"]].sort_values("start").itertuples():
         part = motions.window(row.start, row.end, ["lat", "lon", *channels], record=row.record)
         mid = len(part) // 2
@@ -305,25 +336,29 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
         if bad.any():  # short gaps: linear in time
             idx = np.arange(x.shape[1])
             x = np.array([np.interp(idx, idx[np.isfinite(r)], r[np.isfinite(r)]) for r in x])
-        inputs.append((str(row.window_id), float(row.heading_deg), x, priors))
+        inputs.append((str(row.window_id), float(row.heading_deg), cross_spectra(x, fs, settings.segment_s), priors))
 
-    def fit_all(names, rows_of):
-        est = [estimate_window(vessel, design, names, x[rows_of], fs, pr, settings, hd, settings.segment_s)
-               for _, hd, x, pr in inputs]
-        if settings.pool_windows and len(inputs) > POOL_MIN_WINDOWS:
-            pooled = pooled_priors([pr for *_, pr in inputs], est)
-            # refitted from the pooled priors, not from the first fit: started there (2.4× cheaper), the blind bank's
-            # wind seas found fell 91 → 87 % and clean-hull false alarms rose 3 → 5 of 24
-            est = [e if all(a is b for a, b in zip(pp, pr, strict=True)) else  # no prior moved: the same fit
-                   estimate_window(vessel, design, names, x[rows_of], fs, pp, settings, hd, settings.segment_s)
-                   for (_, hd, x, pr), pp, e in zip(inputs, pooled, est, strict=True)]
-        else:
-            pooled = [pr for *_, pr in inputs]
-        return [r for (wid, hd, _, pr), e, pp in zip(inputs, est, pooled, strict=True)
-                for r in partition_rows(wid, e, hd, names, pr, pp)]
-
-    rows = fit_all(channels, slice(None))
-    rows_roll = fit_all(without_roll, keep) if roll_free else []
+    # every window with every channel set (all; without roll) at once, then the refits from the pooled priors
+    subsets = [(channels, list(range(len(channels))))] + ([(without_roll, keep)] if roll_free else [])
+    hindcast = [pr for *_, pr in inputs]
+    first = estimate_windows(vessel, design, channels, inputs,
+                             [(k, cols, pr) for _, cols in subsets for k, pr in enumerate(hindcast)], settings)
+    est = [first[s * len(inputs):(s + 1) * len(inputs)] for s in range(len(subsets))]
+    if settings.pool_windows and len(inputs) > POOL_MIN_WINDOWS:
+        pooled = [pooled_priors(hindcast, e) for e in est]
+        # refitted from the pooled priors, not from the first fit: started there (2.4× cheaper), the blind bank's
+        # wind seas found fell 91 → 87 % and clean-hull false alarms rose 3 → 5 of 24
+        moved = [(s, k) for s in range(len(subsets)) for k, pr in enumerate(hindcast)
+                 if not all(a is b for a, b in zip(pooled[s][k], pr, strict=True))]  # no prior moved: the same fit
+        again = estimate_windows(vessel, design, channels, inputs,
+                                 [(k, subsets[s][1], pooled[s][k]) for s, k in moved], settings)
+        for (s, k), e in zip(moved, again, strict=True):
+            est[s][k] = e
+    else:
+        pooled = [hindcast] * len(subsets)
+    rows, *rows_roll = ([r for (wid, hd, _, pr), e, pp in zip(inputs, est[s], pooled[s], strict=True)
+                         for r in partition_rows(wid, e, hd, names, pr, pp)] for s, (names, _) in enumerate(subsets))
+    rows_roll = rows_roll[0] if rows_roll else []
     table = pd.DataFrame(rows, columns=list(SEA_UNITS))
     if settings.roll_free and main:  # empty when too few channels remain without roll: identify takes the full fit
         write_table(pd.DataFrame(rows_roll, columns=list(SEA_UNITS)), out_roll, SEA_UNITS, {"fingerprint": fp})

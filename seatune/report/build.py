@@ -626,6 +626,12 @@ def artefacts_section(inp: ReportInputs) -> str:
 
 def build_report(inp: ReportInputs, row: dict, units: dict[str, str]) -> str:
     """The HTML page (a string)."""
+    with P.drawn_together() as figures:
+        page = _page(inp, row, units)
+    return figures.fill(page)
+
+
+def _page(inp: ReportInputs, row: dict, units: dict[str, str]) -> str:
     def unless_not_run(stage: str, anchor: str, title: str, make):
         why = inp.not_run.get(stage)
         return H.section(anchor, title, H.note(f"Not run this time: {why}.")) if why else make()

@@ -6,6 +6,9 @@ from __future__ import annotations
 import base64
 import io
 import math
+import re
+import threading
+from contextlib import contextmanager
 
 import numpy as np
 import pandas as pd
@@ -24,10 +27,45 @@ def display_unit(unit: str) -> tuple[float, str]:
     return 1.0, unit.replace("^2", "²")
 
 
+_LOCAL = threading.local()  # .held: the figures png() was given inside drawn_together() on this thread
+
+
 def png(fig: Figure) -> str:
+    """The figure as base64 PNG; inside `drawn_together`, a placeholder its `fill` replaces."""
+    held = getattr(_LOCAL, "held", None)
+    if held is not None:
+        held.append(fig)
+        return f"\x00figure {len(held) - 1}\x00"
+    return _draw(fig)
+
+
+def _draw(fig: Figure) -> str:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=DPI)
     return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+class _Held:
+    def __init__(self, figures: list[Figure]):
+        self.figures = figures
+
+    def fill(self, text: str) -> str:
+        """`text` with each placeholder replaced by its figure, the figures drawn over the CPUs (seatune.parallel):
+        drawing is most of a report's time, and each figure's PNG is the same bytes drawn anywhere."""
+        from seatune.parallel import map_tasks
+
+        drawn = map_tasks(_draw, self.figures)
+        return re.sub("\x00figure (\\d+)\x00", lambda m: drawn[int(m.group(1))], text)
+
+
+@contextmanager
+def drawn_together():
+    """Hold the figures png() is given; `fill` then draws them all at once."""
+    outer, _LOCAL.held = getattr(_LOCAL, "held", None), []
+    try:
+        yield _Held(_LOCAL.held)
+    finally:
+        _LOCAL.held = outer
 
 
 def _naive_utc(t: pd.Series | pd.DatetimeIndex) -> np.ndarray:
