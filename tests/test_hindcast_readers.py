@@ -780,3 +780,21 @@ def test_ingest_counts_partial_stencils_and_stops_with_no_sea(tmp_path):
     assert re.search(r"no sea at lat 61\.2\d*, lon 3\.1\d*, 2026-03-14T07:00Z: all 4 grid corners are land", lines[0])
     # the earlier good artefact is still there
     assert pd.read_parquet(tmp_path / "run" / "waves.parquet")["sea_corners"].tolist() == [3, 3]
+
+
+def test_a_file_read_again_is_the_same_unless_it_changed(tmp_path, csv_table):
+    """Every stage of `seatune run` reads the hindcast: an unchanged file is parsed once and each reader gets its
+    own copy; a file rewritten since is read afresh."""
+    import os
+
+    path = hw.write_hindcast_csv(tmp_path / "hc.csv", csv_table)
+    first = read_hindcast(path)
+    first.notes.append("changed by a caller")
+    first.bulk["hs"][:] = -1.0
+    again = read_hindcast(path)
+    assert again.notes == [] and again.bulk.equals(read_hindcast(path).bulk)
+    assert_allclose(again.bulk["hs"].values[:, 0], csv_table["hs"], rtol=1e-15)
+    hw.write_hindcast_csv(path, csv_table.assign(hs=2 * csv_table["hs"]))
+    stat = os.stat(path)
+    os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns + 10**9))  # whatever the clock's resolution
+    assert_allclose(read_hindcast(path).bulk["hs"].values[:, 0], 2 * csv_table["hs"], rtol=1e-15)

@@ -34,6 +34,7 @@ count the neighbours used and those with a weight; a track point without any sea
 
 from __future__ import annotations
 
+import copy
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -199,8 +200,12 @@ def _finish_bulk(ds: xr.Dataset) -> xr.Dataset:
 # --------------------------------------------------------------------------------------------------
 
 
+_READ: dict[tuple, Hindcast] = {}  # the last file read, by (path, size, mtime, format, convention)
+
+
 def read_hindcast(path: str | Path, format: str = "auto", *, direction_convention: str | None = None) -> Hindcast:
-    """Read a wave hindcast file.
+    """Read a wave hindcast file; a file read before and unchanged since (size, mtime) is not parsed again (each
+    stage of `seatune run` reads it), and the caller gets its own copy.
 
     Parameters
     ----------
@@ -225,6 +230,19 @@ def read_hindcast(path: str | Path, format: str = "auto", *, direction_conventio
     UserError
         Missing, empty or malformed file (one line naming the file, the place and the problem).
     """
+    try:
+        stat = Path(path).stat()
+        key = (str(Path(path).resolve()), stat.st_size, stat.st_mtime_ns, format, direction_convention)
+    except OSError:
+        return _read_hindcast(path, format, direction_convention)  # it says what is wrong with the path
+    if key not in _READ:
+        hc = _read_hindcast(path, format, direction_convention)
+        _READ.clear()
+        _READ[key] = hc
+    return copy.deepcopy(_READ[key])
+
+
+def _read_hindcast(path: str | Path, format: str, direction_convention: str | None) -> Hindcast:
     path = Path(path)
     src = str(path)
     if format not in FORMATS:

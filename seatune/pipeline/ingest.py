@@ -297,7 +297,7 @@ def _track_points(df: pd.DataFrame) -> pd.DataFrame:
     if not len(tr):
         return tr
     hours = pd.date_range(tr["time"].iloc[0].ceil("h"), tr["time"].iloc[-1].floor("h"), freq="h")
-    j = np.searchsorted(tr["time"].to_numpy(), hours.to_numpy())
+    j = np.searchsorted(pd.DatetimeIndex(tr["time"]).asi8, hours.asi8)  # ns since the epoch (UTC): no Timestamp objects
     keep = np.unique(np.clip(np.r_[0, len(tr) - 1, j - 1, j], 0, len(tr) - 1))
     return tr.iloc[keep]
 
