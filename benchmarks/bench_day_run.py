@@ -1,5 +1,6 @@
 """`seatune run` on a simulated 24 h, 10 Hz day (the issue's speed target: the whole run under 60 s on 2 cores),
-with each stage's share, and the SDOF resonance fit identify calls ~1000 times on it.
+with each stage's share, against the same run on one worker process per stage (SEATUNE_WORKERS=1, the reference:
+the stages' tasks in a loop), and the SDOF resonance fit identify calls ~1000 times on it.
 
 Day: `bench_simulate_day.day_scenario` (the sample vessel drifting 24 h at 0.1 m/s through the sample's sea
 states), its own ERA5 file as the hindcast, the sample run's settings. The run is a fresh process. Ratio: the
@@ -9,7 +10,9 @@ SDOF fit with its analytic Jacobian against the same trust-region fit with scipy
 
 from __future__ import annotations
 
+import os
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -21,6 +24,8 @@ import yaml
 
 from benchmarks.bench_simulate_day import day_scenario
 from benchmarks.timing import best_of
+from seatune.parallel import WORKERS_ENV
+from seatune.parallel import workers as workers_available
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -79,12 +84,19 @@ def run() -> dict:
         run_yaml["logs"][1]["path"] = str(next(day.glob("*_gnss.csv")))
         run_yaml["hindcast"]["path"] = str(next(day.glob("*_era5.nc")))
         (tmp / "run.yaml").write_text(yaml.safe_dump(run_yaml, sort_keys=False))
-        t = time.perf_counter()
-        done = subprocess.run([sys.executable, "-m", "seatune", "run", str(tmp / "run.yaml")], capture_output=True,
-                              text=True, check=True, cwd=ROOT)
-        out["run_s"] = round(time.perf_counter() - t, 1)
-    for stage, seconds in re.findall(r"^(\w+): .*\((\d+) s\)", done.stdout, flags=re.M):
-        out[f"{stage}_s"] = int(seconds)
+        for label, workers in (("serial", "1"), ("", "")):  # the reference first: one worker process per stage
+            shutil.rmtree(tmp / "run", ignore_errors=True)
+            env = {**os.environ, WORKERS_ENV: workers} if workers else {
+                k: v for k, v in os.environ.items() if k != WORKERS_ENV}
+            t = time.perf_counter()
+            done = subprocess.run([sys.executable, "-m", "seatune", "run", str(tmp / "run.yaml")], capture_output=True,
+                                  text=True, check=True, cwd=ROOT, env=env)
+            key = f"run_{label}_s" if label else "run_s"
+            out[key] = round(time.perf_counter() - t, 1)
+            for stage, seconds in re.findall(r"^(\w+): .*\((\d+) s\)", done.stdout, flags=re.M):
+                out[f"{stage}_{label}_s" if label else f"{stage}_s"] = int(seconds)
+    out["workers"] = workers_available()
+    out["ratio_serial_to_workers"] = round(out["run_serial_s"] / out["run_s"], 2)
     out["log_hours_per_run_minute"] = round(24.0 / (out["run_s"] / 60.0), 1)
     out.update(_sdof_ratio())
     return out
