@@ -173,8 +173,8 @@ def test_the_batched_search_costs_are_each_stacked_fits_residuals():
                        rng.uniform(0.2, 0.5, (27, 3)), rng.uniform(0.1, 0.3, (27, 3)), pairs, welch)
     priors = [PartitionPrior(1.5, 8.0, 200.0)]
     x = np.array([[np.log(1.2), np.log(7.5), 190.0, np.log(25.0), np.log(2.0)]])
-    added = np.array([[np.log(hs), np.log(tp), d, np.log(spread), np.log(3.3)]
-                      for hs in (0.3, 1.0) for tp in (6.0, 14.0) for d in (0.0, 90.0, 330.0) for spread in (20.0, 35.0)])
+    added = np.array([[np.log(hs), np.log(tp), d, np.log(spread), np.log(3.3)] for hs in (0.3, 1.0)
+                      for tp in (6.0, 14.0) for d in (0.0, 90.0, 330.0) for spread in (20.0, 35.0)])
     batched = problem.costs_with_added(x, priors, added)
     one_by_one = [0.5 * np.sum(problem.residuals(np.vstack([x, a]).ravel(), [*priors, None]) ** 2) for a in added]
     np.testing.assert_allclose(batched, one_by_one, rtol=1e-10)
