@@ -91,3 +91,19 @@ def test_calibrated_decision_names_a_hidden_moonpool_above_the_null(sample_model
     assert rows["moonpool"]["false_alarm_p"] == pytest.approx(1 / 20)
     assert rows["moonpool"]["score"] > rows["moonpool"]["null_gain_q95"]
     assert not rows["imu_lever_arm"]["eligible"] and np.isnan(rows["imu_lever_arm"]["false_alarm_p"])
+
+
+def test_the_null_replicas_fitted_side_by_side_give_the_serial_p_values(sample_model, monkeypatch):
+    """Replicas are fitted two at a time (seatune.parallel) and taken in order as one at a time would take them:
+    under a null too broad for either candidate, the first is dropped after its first replica, the second tested on
+    the replica the first one made, and every p and null quantile equals the serial run's."""
+    null = NullSea(hs_rel_std=0.3, tp_rel_std=0.1, dir_std_deg=20.0, spread_deg=20.0, model_error=0.6)
+    effects = ["moonpool", "anti_roll_tank", "imu_lever_arm", "imu_misalignment", "hs_bias"]
+    tested = {}
+    for workers in ("1", "2"):
+        monkeypatch.setenv("SEATUNE_WORKERS", workers)
+        diag, _ = trials.trial(sample_model, ("moonpool", "imu_lever_arm"), 0, null=null, effects=effects)
+        tested[workers] = [(r["added"], r["false_alarm_p"], r["null_gain_q95"]) for r in diag.rows
+                           if np.isfinite(r["false_alarm_p"])]
+    assert len(tested["1"]) >= 2  # a second candidate was tested after the first failed
+    assert tested["1"] == tested["2"]

@@ -396,27 +396,30 @@ class Diagnoser:
         drawn (Davison & Hinkley 1997 eq. 4.11), stopping once the test cannot pass. Candidates are tested
         strongest first and the first with p ≤ false_alarm passes; weaker ones are not tested (a stronger one
         won)."""
+        from seatune.parallel import workers
+
         null = self.null
         order = sorted((r for r in rows if r["eligible"]), key=lambda r: -r["score"])
         rng = np.random.default_rng(null.seed)
-        replicas = []
-
-        def replica(b):
-            while len(replicas) <= b:  # drawn once, shared by the candidates
-                replicas.append(self._null_replica(base, wave_given, rng))
-            return replicas[b]
-
+        draws = [self._null_draw(base, rng) for _ in range(null.replicates)]  # in replica order: the same data
+        fitted: dict[int, tuple] = {}  # replica → (its base fit, its bands), shared by the candidates
+        chunk = workers()  # replicas fitted side by side, then taken in order as one at a time would take them
         for row in order:
-            effect = row["fit"].effect_used
+            task = partial(self._null_score, base, wave_given, draws, fitted, row["fit"].effect_used,
+                           row["bic_penalty"])
             scores = []
-            for b in range(null.replicates):
-                rep, rep_base, bands = replica(b)
-                f = rep.fit(effect, bands, start=rep_base)
-                scores.append(_score(rep_base.nll_train - f.nll_train, rep_base.nll_holdout - f.nll_holdout,
-                                     row["bic_penalty"]))
-                exceed = sum(v >= row["score"] for v in scores)
-                if (1 + exceed) / (null.replicates + 1) > null.false_alarm:
-                    break  # cannot pass any more: the Monte Carlo p-value over the replicas drawn so far
+            for start in range(0, null.replicates, chunk):
+                batch = list(range(start, min(start + chunk, null.replicates)))
+                stop = False
+                for b, (score, made) in zip(batch, map_tasks(task, batch), strict=True):
+                    fitted.setdefault(b, made)
+                    scores.append(score)
+                    exceed = sum(v >= row["score"] for v in scores)
+                    if (1 + exceed) / (null.replicates + 1) > null.false_alarm:
+                        stop = True  # cannot pass any more: the Monte Carlo p-value over the replicas drawn so far
+                        break
+                if stop:
+                    break
             scores = np.array(scores)
             row["false_alarm_p"] = float((1 + np.sum(scores >= row["score"])) / (scores.size + 1))
             row["null_gain_q95"] = float(np.quantile(scores, 0.95))
@@ -424,15 +427,19 @@ class Diagnoser:
             if row["eligible"]:
                 break
 
-    def _null_replica(self, base: Fit, wave_given: np.ndarray, rng: np.random.Generator):
-        """(replica Diagnoser, its base fit, its misfit bands) of one dataset drawn under the null: `base`'s
-        model (loading and effects named so far)."""
+    def _null_draw(self, base: Fit, rng: np.random.Generator) -> np.ndarray:
+        """The random part of one dataset under the null (`base`'s model: loading and effects named so far): its
+        Welch spectra, measured in a sea drawn around the one diagnose found."""
         truth = copy.copy(self.model)
         truth.data = dataclasses.replace(self.data, wave=perturbed_wave(self.data.wave, self.data.omega_fine, rng,
                                                                         self.null))
         expected = truth.spectra(base.phi, base.effect_used, base.params) * np.exp(model_error_draw(
             self.data.omega, len(self.data.channels), rng, self.null.model_error, self.null.model_error_scale))[None]
-        measured = sampled_spectra(expected, self.data.dof, rng)
+        return sampled_spectra(expected, self.data.dof, rng)
+
+    def _null_diagnoser(self, base: Fit, wave_given: np.ndarray, measured: np.ndarray) -> Diagnoser:
+        """A Diagnoser of the drawn dataset, as the real data's: the hindcast's sea, searched at the null's
+        loading."""
         rep = copy.copy(self)
         rep.data = dataclasses.replace(self.data, measured=measured, wave=wave_given)
         rep.model = copy.copy(self.model)
@@ -441,10 +448,22 @@ class Diagnoser:
         rep.phi_start = base.phi  # the null's loading: where the replica's fits start
         if rep.tp_std_s > 0 or rep.dir_std_deg > 0:  # its sea search at the null's loading, then one fit
             rep.data.wave = rep.sea_state_search(base.phi)
-        rep_base = rep.fit(None) if base.effect_used is None else rep._fit(base.effect_used, (), None, x_from=base)
-        r0, sd0, _ = rep.residuals(rep.phi_start, base.effect_used, base.params)
-        bands = res.bands(rep.data.subset(rep.train), r0[rep.train], sd0[rep.train], rep.modes(rep.phi_start))
-        return rep, rep_base, bands
+        return rep
+
+    def _null_score(self, base: Fit, wave_given, draws, fitted, effect, penalty: float, b: int):
+        """(the candidate's score on replica b, (the replica's base fit, its bands)); the base fit and bands from
+        `fitted` when another candidate made them."""
+        rep = self._null_diagnoser(base, wave_given, draws[b])
+        if b in fitted:
+            rep_base, bands = fitted[b]
+        else:
+            rep_base = rep.fit(None) if base.effect_used is None else rep._fit(base.effect_used, (), None,
+                                                                               x_from=base)
+            r0, sd0, _ = rep.residuals(rep.phi_start, base.effect_used, base.params)
+            bands = res.bands(rep.data.subset(rep.train), r0[rep.train], sd0[rep.train], rep.modes(rep.phi_start))
+        f = rep.fit(effect, bands, start=rep_base)
+        score = _score(rep_base.nll_train - f.nll_train, rep_base.nll_holdout - f.nll_holdout, penalty)
+        return score, (rep_base, bands)
 
     def _gaps(self, r, sd, pred, select, fallback) -> dict:
         """Gap and σ error per role in the `select` bins; a role none of whose bins an effect moves is scored in
