@@ -31,7 +31,7 @@ from scipy.special import digamma, polygamma
 from seatune.diagnosis import residuals as res
 from seatune.diagnosis.effects import SEA_SIDE, Compound
 from seatune.diagnosis.model import SpectralModel, WindowSet, spectra_in_sea
-from seatune.parallel import map_tasks
+from seatune.parallel import map_tasks, workers
 from seatune.physics.response import trapezoid_weights
 
 BIN_CORRELATION = 1.5  # Hann window's equivalent noise bandwidth [bins]
@@ -396,8 +396,6 @@ class Diagnoser:
         drawn (Davison & Hinkley 1997 eq. 4.11), stopping once the test cannot pass. Candidates are tested
         strongest first and the first with p ≤ false_alarm passes; weaker ones are not tested (a stronger one
         won)."""
-        from seatune.parallel import workers
-
         null = self.null
         order = sorted((r for r in rows if r["eligible"]), key=lambda r: -r["score"])
         rng = np.random.default_rng(null.seed)

@@ -242,15 +242,17 @@ class _Problem:
     def residuals(self, x_flat: np.ndarray, priors: list[PartitionPrior | None]) -> np.ndarray:
         x = x_flat.reshape(-1, 5)
         wave = partition_spectrum(self.omega, self.dirs, x)
-        log_auto, coh = self.statistics(self.at_bins(model_cross_spectra(self.g, wave)))
-        r = [((self.log_auto - log_auto) / self.auto_std).ravel(), ((self.coh.real - coh.real) / self.coh_std).ravel(),
-             ((self.coh.imag - coh.imag) / self.coh_std).ravel()]
-        for xp, prior in zip(x, priors, strict=True):
-            mean, std = (prior.mean(), prior.std()) if prior is not None else (_FREE_MEAN, _FREE_STD)
-            d = xp - mean
-            d[2] = signed_direction_deg(d[2])
-            r.append(np.where(np.isfinite(std), d / std, 0.0))
-        return np.concatenate(r)
+        return np.concatenate([self.data_residuals(self.at_bins(model_cross_spectra(self.g, wave))),
+                               prior_residuals(x, priors).ravel()])
+
+    def data_residuals(self, phi: np.ndarray) -> np.ndarray:
+        """The data's residuals under Φ at the bins (…, nω, nch²) packed as outer_raos: (…, n_data), the log
+        autospectra, then the coherencies' real and imaginary parts, each in its standard deviations."""
+        log_auto, coh = self.statistics(phi)
+        lead = phi.shape[:-2]
+        return np.concatenate([((self.log_auto - log_auto) / self.auto_std).reshape(*lead, -1),
+                               ((self.coh.real - coh.real) / self.coh_std).reshape(*lead, -1),
+                               ((self.coh.imag - coh.imag) / self.coh_std).reshape(*lead, -1)], axis=-1)
 
     def jacobian(self, x_flat: np.ndarray, priors: list[PartitionPrior | None], lower, upper) -> np.ndarray:
         """Forward differences of `residuals`, batched: Φ is linear in the spectrum S = Σ_p s1_p ⊗ d_p, and a step
@@ -298,13 +300,10 @@ class _Problem:
         _, first, which = np.unique(added[:, 2:4], axis=0, return_index=True, return_inverse=True)
         _, d = _partition_factors(self.omega, self.dirs, added[first])  # the spreading of each distinct one
         dg = np.moveaxis(d @ self.g, 1, 0) * (TWO_PI / self.g.shape[1])  # (n shapes, nω, nch²)
-        log_auto, coh = self.statistics(self.at_bins(phi_x[None] + s1[:, :, None] * dg[which.ravel()]))
-        cost = ((((self.log_auto - log_auto) / self.auto_std) ** 2).sum(axis=(1, 2))
-                + (((self.coh.real - coh.real) / self.coh_std) ** 2).sum(axis=(1, 2))
-                + (((self.coh.imag - coh.imag) / self.coh_std) ** 2).sum(axis=(1, 2)))
-        fixed = self.residuals(x.ravel(), list(priors))[self.n_data:]  # x's prior terms, the same for every row
-        free = np.where(np.isfinite(_FREE_STD), (added - _FREE_MEAN) / _FREE_STD, 0.0)  # direction: no prior
-        return 0.5 * (cost + np.sum(fixed**2) + np.sum(free**2, axis=1))
+        data = self.data_residuals(self.at_bins(phi_x[None] + s1[:, :, None] * dg[which.ravel()]))
+        fixed = np.sum(prior_residuals(x, priors) ** 2)  # x's prior terms, the same for every row
+        free = prior_residuals(added, [None] * len(added))
+        return 0.5 * (np.sum(data**2, axis=1) + fixed + np.sum(free**2, axis=1))
 
     @staticmethod
     def mask(anchor: np.ndarray, steady_pairs: np.ndarray) -> np.ndarray:
@@ -325,6 +324,16 @@ _FREE_MEAN = np.array([np.log(0.5), np.log(12.0), 0.0, np.log(20.0), np.log(3.3)
 _FREE_STD = np.array([1.5, 0.4, np.inf, 0.5, 0.5])
 _LOWER = np.array([np.log(0.02), np.log(3.0), -np.inf, np.log(4.0), np.log(1.0)])
 _UPPER = np.array([np.log(15.0), np.log(25.0), np.inf, np.log(80.0), np.log(7.0)])
+
+
+def prior_residuals(x: np.ndarray, priors: list[PartitionPrior | None]) -> np.ndarray:
+    """Each partition's offset from its prior in the prior's standard deviations (P, 5), the direction signed; a
+    partition absent from the hindcast (None) against the weak free prior, without a direction term."""
+    mean = np.array([p.mean() if p is not None else _FREE_MEAN for p in priors])
+    std = np.array([p.std() if p is not None else _FREE_STD for p in priors])
+    d = x - mean
+    d[:, 2] = signed_direction_deg(d[:, 2])
+    return np.where(np.isfinite(std), d / std, 0.0)
 
 
 def _fit(problem: _Problem, x0: np.ndarray, priors) -> optimize.OptimizeResult:
