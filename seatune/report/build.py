@@ -153,11 +153,11 @@ def defects_section(inp: ReportInputs) -> str:
 def windows_section(inp: ReportInputs) -> str:
     w = inp.windows
     max_sog = (inp.settings.get("windows") or {}).get("max_sog")
-    body = H.figure(P.png(P.timeline(inp.track, w, inp.waves, max_sog)),
+    body = H.figure(P.png(P.timeline, inp.track, w, inp.waves, max_sog),
                     "Speed over ground [m/s], heading [deg, clockwise from North] and the hindcast's Hs [m] / Tp [s] "
                     "at the track against time [UTC]. Shaded: candidate windows, green accepted (free floating, "
                     "stationary), grey rejected; labels W<id> as in the table.", "timeline of windows")
-    body += H.figure(P.png(P.track_map(inp.track, w)),
+    body += H.figure(P.png(P.track_map, inp.track, w),
                      "GNSS track [deg]; accepted windows in colour with their heading and hindcast Hs, rejected "
                      "windows labelled in grey.", "track with windows")
     days = pd.DatetimeIndex(w["start"]).normalize().nunique()
@@ -185,7 +185,7 @@ def sea_section(inp: ReportInputs) -> str | None:
     sea = inp.sea_states
     if sea is None or sea.empty:
         return None
-    body = H.figure(P.png(P.sea_polars(sea)),
+    body = H.figure(P.png(P.sea_polars, sea),
                     "The directional sea estimated from the motions per window: S(f, D) against wave period [s, "
                     "radius] and the direction the waves come from [deg, north up, clockwise]; o: estimated "
                     "partitions with Hs, x: the hindcast's partitions.", "estimated directional spectra")
@@ -277,7 +277,7 @@ def raos_section(inp: ReportInputs) -> str:
     for (_, _), part in agg.groupby(["sector_deg", "hs_bin_m"], sort=True):
         title, wins = _sector_title(part)
         body += f"<h3>{H.esc(title)}</h3>"
-        body += H.figure(P.png(P.rao_sector(part, units)),
+        body += H.figure(P.png(P.rao_sector, part, units),
                          "Effective RAO |H| = √(S_xx/S_ζζ) in the window's directional sea: measured (dots) with its "
                          "confidence interval (grey band: χ² sampling error and hindcast Hs/Tp error), the model with "
                          "the prior loading (blue dashed) and with the tuned loading (orange). Units: channel unit per "
@@ -309,7 +309,7 @@ def spectra_section(inp: ReportInputs) -> str | None:
         w = windows.loc[wid]
         role = {"holdout": ", held out of tuning", "train": ", a training window"}.get(roles.get(wid, ""), "")
         title = f"W{wid}: heading {w['heading_deg']:.0f}°, hindcast Hs {w['hs']:.2f} m, Tp {w['tp']:.1f} s{role}"
-        body += H.figure(P.png(P.response_spectra(part, units, title)),
+        body += H.figure(P.png(P.response_spectra, part, units, title),
                          f"W{wid}: one-sided response spectrum S(ω) [channel unit²·s/rad; angles in deg²·s/rad] of the "
                          "main heave, roll and pitch channels: measured (Welch, filter stage; black) against the "
                          "model's |H_eff(ω)|²·S_ζζ(ω) in the window's directional sea with the prior loading (blue "
@@ -334,7 +334,7 @@ def mode_shape_words(modes, which: str) -> dict[str, str]:
 
 def natural_frequencies_section(inp: ReportInputs, tuned: dict[str, float] | None) -> str:
     nf = inp.natural_frequencies
-    body = H.figure(P.png(P.natural_frequency_plot(nf, tuned)),
+    body = H.figure(P.png(P.natural_frequency_plot, nf, tuned),
                     "Natural frequencies ω_n [rad/s] per window with their 95 % interval and combined over windows "
                     "(diamonds), against the model with the prior loading (blue dashed) and the tuned loading "
                     "(orange).",
@@ -417,7 +417,7 @@ def tuning_section(inp: ReportInputs) -> str:
                                                     "tuning_history.parquet is absent: the run was not tuned."))
     units = {p: PARAMETER_UNITS.get(p, "") for p in h["parameter"].unique()}
     backend = str(h["backend"].iloc[0])
-    body = H.figure(P.png(P.convergence(h, units)),
+    body = H.figure(P.png(P.convergence, h, units),
                     "Posterior of each tuned loading parameter after each training window (update 0 = prior): mean, "
                     "±1σ band and 5–95 % interval; units as in the vessel YAML (β44 as a fraction of critical "
                     "damping).", "tuning convergence")
@@ -427,13 +427,13 @@ def tuning_section(inp: ReportInputs) -> str:
         body += H.para("tuning_history.parquet carries no marginal PMF: the marginals below are the Gaussians with "
                        "the recorded mean and std; ticks on the axis mark the backend's own 5 % and 95 % quantiles.",
                        "")
-    body += H.figure(P.png(P.marginals(h, units, pmfs)),
+    body += H.figure(P.png(P.marginals, h, units, pmfs),
                      "Marginal probability density of each parameter after each update ([1/parameter unit]).",
                      "marginals")
     corr = history_correlation(h)
     body += "<h3>" + ("UKF covariance" if backend == "ukf" else "Posterior correlation") + "</h3>"
     if corr is not None:
-        body += H.figure(P.png(P.correlation(corr[0], corr[1], "posterior correlation after the last update")),
+        body += H.figure(P.png(P.correlation, corr[0], corr[1], "posterior correlation after the last update"),
                          "Correlation of the tuned parameters after the last update [-].", "correlation")
     else:
         body += H.para("tuning_history.parquet carries no covariance (no cov_<parameter> columns): not shown.", "")
@@ -452,7 +452,7 @@ def validation_section(inp: ReportInputs, warning: str = "") -> str:
                                                             "validation.parquet is absent."))
     units = {c: inp.channel_unit(c) for c in v["measurement"].str.split(":").str[0].unique()}
     body = H.alert("Tuning made the held-out prediction worse", warning) if warning else ""
-    body += H.figure(P.png(P.validation_plots(v, units)),
+    body += H.figure(P.png(P.validation_plots, v, units),
                     "Measured σ against the model's prediction with the prior (blue) and tuned (orange) loading; "
                     "open markers: held-out windows not used in tuning. Left: ratio predicted/measured [-] (band "
                     "0.8–1.25). Right: values in the channel unit (angles in deg, rates in deg/s, specific force in "
@@ -571,7 +571,7 @@ def diagnosis_section(inp: ReportInputs) -> str | None:
         worst = (used.assign(a=used["log_ratio_before"].abs()).groupby("channel")["a"].mean()
                  .sort_values(ascending=False).index[:3].tolist())
         after = f"after: {' + '.join(chosen['effect'])}" if len(chosen) else "after: refitted, no effect"
-        body += H.figure(P.png(P.residual_maps(res, worst, after)),
+        body += H.figure(P.png(P.residual_maps, res, worst, after),
                          "Residual map ln(measured / model) over ω × window for the three most misfitting channels, "
                          "before and after (red: measured above the model)", "residual map before and after")
     descriptions = "".join(f"<li><b>{H.esc(r.effect)}</b>: {H.esc(r.signature)}</li>" for r in d.itertuples()
@@ -595,7 +595,7 @@ def prediction_section(inp: ReportInputs) -> str | None:
     at = pred[pred["time"] == worst_time]
     what = (f"P(max {first['channel']} > {first['limit']:g} {unit} in {first['duration_s'] / 3600:g} h) [%] at "
             f"{pd.Timestamp(worst_time):%Y-%m-%d %H:%M} UTC")
-    body = H.figure(P.png(P.exceedance_polar(at, what)),
+    body = H.figure(P.png(P.exceedance_polar, at, what),
                     "Probability that the largest response of the sea state exceeds the limit, against compass heading "
                     "(north up, clockwise), mixed over the remaining loading uncertainty and the forecast's Hs/Tp/"
                     "direction hypotheses (A5 eqs. 3.11–3.12); dots: the advised heading (eq. 3.13).",

@@ -8,6 +8,7 @@ import io
 import math
 import re
 import threading
+from collections.abc import Callable
 from contextlib import contextmanager
 
 import numpy as np
@@ -30,13 +31,14 @@ def display_unit(unit: str) -> tuple[float, str]:
 _LOCAL = threading.local()  # .held: the figures png() was given inside drawn_together() on this thread
 
 
-def png(fig: Figure) -> str:
-    """The figure as base64 PNG; inside `drawn_together`, a placeholder its `fill` replaces."""
+def png(build: Callable[..., Figure], *args, **kwargs) -> str:
+    """The figure `build(*args, **kwargs)` as base64 PNG; inside `drawn_together`, a placeholder its `fill`
+    replaces (the figure is then built and drawn there)."""
     held = getattr(_LOCAL, "held", None)
     if held is not None:
-        held.append(fig)
+        held.append((build, args, kwargs))
         return f"\x00figure {len(held) - 1}\x00"
-    return _draw(fig)
+    return _draw(build(*args, **kwargs))
 
 
 def _draw(fig: Figure) -> str:
@@ -45,22 +47,28 @@ def _draw(fig: Figure) -> str:
     return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
+def _build_and_draw(held: tuple) -> str:
+    build, args, kwargs = held
+    return _draw(build(*args, **kwargs))
+
+
 class _Held:
-    def __init__(self, figures: list[Figure]):
+    def __init__(self, figures: list[tuple]):
         self.figures = figures
 
     def fill(self, text: str) -> str:
-        """`text` with each placeholder replaced by its figure, the figures drawn over the CPUs (seatune.parallel):
-        drawing is most of a report's time, and each figure's PNG is the same bytes drawn anywhere."""
+        """`text` with each placeholder replaced by its figure, the figures built and drawn over the CPUs
+        (seatune.parallel): matplotlib's axes and rendering are most of a report's time, and each figure's PNG is
+        the same bytes drawn anywhere."""
         from seatune.parallel import map_tasks
 
-        drawn = map_tasks(_draw, self.figures)
+        drawn = map_tasks(_build_and_draw, self.figures)
         return re.sub("\x00figure (\\d+)\x00", lambda m: drawn[int(m.group(1))], text)
 
 
 @contextmanager
 def drawn_together():
-    """Hold the figures png() is given; `fill` then draws them all at once."""
+    """Hold the figures png() is given; `fill` then builds and draws them all at once."""
     outer, _LOCAL.held = getattr(_LOCAL, "held", None), []
     try:
         yield _Held(_LOCAL.held)
