@@ -69,6 +69,47 @@ def test_eliminated_dof_equals_the_simulators_full_solve(sample_model, spectral_
     assert np.abs(xi - plain).max() > 0.05 * np.abs(plain).max()  # and the effect is not negligible
 
 
+def test_quadratic_damping_equals_the_per_window_linearised_solve(sample_model, spectral_model):
+    """The candidate folds the windows' equivalent damping into one solve (Sherman–Morrison) and sums over directions
+    before its fixed point; the plain formulation solves each window's 6×6 system with b_eq = √(8/π) σ_φ̇ q I₀
+    (seed_002 eq. 2.19) added to H₄₄, iterating the same damped fixed point."""
+    import copy
+
+    model = copy.copy(spectral_model)
+    data = model.data
+    wave = np.concatenate([data.wave, 3.0 * data.wave[:, :, ::-1]])  # a second, higher sea from another side
+    model.data = WindowSet(["0", "1"], np.array(["train"] * 2), data.omega, data.omega_fine, data.kernel_index,
+                           data.kernel, data.channels, np.ones((2, *data.measured.shape[1:])),
+                           np.full((2, data.dof.shape[1]), 16.0), np.ones((2, *data.mask.shape[1:]), bool), wave,
+                           np.array([2.0, 6.0]), np.array([9.0, 9.0]), np.array([90.0, 270.0]), np.zeros(2),
+                           np.zeros(2))
+    model._recent = []
+    effect, q = EFFECT["quadratic_roll_damping"], 3.0
+    got = model.spectra(PHI, effect, {"q": q})
+    parts = model.parts(PHI)
+    om, b2 = parts.omega, q * parts.inertia_roll
+    weights = np.zeros_like(om)
+    weights[:-1] += np.diff(om) / 2
+    weights[1:] += np.diff(om) / 2
+    expected = []
+    for k in range(2):
+        sigma = 0.0
+        for it in range(effect.iterations):
+            h = parts.impedance.copy()
+            h[:, 3, 3] += -1j * om * np.sqrt(8 / np.pi) * sigma * b2
+            xi = np.linalg.solve(h, np.swapaxes(parts.force, -1, -2))  # (nf, 6, nb)
+            new = np.sqrt(((np.abs(xi[:, 3, :]) ** 2 * wave[k]).sum(axis=1) * om**2) @ weights)
+            sigma = new if it == 0 else np.sqrt(sigma * new)
+        chan = np.einsum("fdb,fdc->fbc", xi, parts.transfer)
+        expected.append(np.einsum("fbc,fb->cf", np.abs(chan) ** 2, wave[k]))
+    expected = np.array(expected)[..., data.kernel_index] @ data.kernel
+    assert np.allclose(got, expected, rtol=1e-9, atol=1e-12 * np.abs(expected).max())
+    linear = model.spectra(PHI)
+    roll = trials.CHANNELS.index("roll")
+    assert np.all(got[:, roll].max(axis=-1) < 0.9 * linear[:, roll].max(axis=-1))  # the damping is felt
+    assert got[1, roll].max() / linear[1, roll].max() < got[0, roll].max() / linear[0, roll].max()  # more so higher
+
+
 def test_lever_arm_equals_the_channel_at_the_shifted_point(sample_model, spectral_model):
     parts = spectral_model.parts(PHI)
     d = np.array([-4.0, 2.0, -3.0])

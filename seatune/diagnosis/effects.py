@@ -19,7 +19,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from seatune.diagnosis.model import spectra_in_sea
 from seatune.physics.channels import AXES, Channel, point_translation, transfer_vectors
 from seatune.physics.response import trapezoid_weights
 
@@ -154,18 +153,26 @@ class QuadraticRollDamping(Effect):
                              axis=-1)
         sol = np.linalg.solve(parts.impedance, rhs)  # (nf, 6, nb + 1)
         xi0, g = sol[:, :, :-1], sol[:, :, -1]
-        h0 = np.einsum("fdb,fdc->fbc", xi0, parts.transfer)
-        hg = np.einsum("fd,fdc->fc", g, parts.transfer)
+        h0 = np.swapaxes(xi0, 1, 2) @ parts.transfer  # (nf, nb, nc)
+        hg = (g[:, None, :] @ parts.transfer)[:, 0, :]  # (nf, nc)
+        x4 = xi0[:, 3, :]  # (nf, nb)
         w = trapezoid_weights(om)
+        # every direction's roll is ξ₄/(1 + c g₄₄) and every channel's H₀ − a ξ₄ h_g with a = c/(1 + c g₄₄), c per
+        # window: the sums over directions are taken once, before the fixed point
+        wave = parts.wave[:, :, None, :]  # (nw, nf, 1, nb)
+        roll0 = (wave @ (x4.real**2 + x4.imag**2)[:, :, None])[..., 0, 0]  # Σ_β S |ξ₄|²: (nw, nf)
         sigma = np.zeros(parts.wave.shape[0])
         for k in range(self.iterations):
             c = -1j * om[None, :] * (np.sqrt(8.0 / np.pi) * sigma * b2)[:, None]  # (nw, nf)
-            coef = c[:, :, None] * xi0[None, :, 3, :] / (1.0 + c * g[None, :, 3])[:, :, None]  # (nw, nf, nb)
-            roll = xi0[None, :, 3, :] - coef * g[None, :, 3, None]
-            new = np.sqrt((np.einsum("wfb,wfb->wf", roll.real**2 + roll.imag**2, parts.wave) * om**2) @ w)
+            den = 1.0 + c * g[None, :, 3]
+            new = np.sqrt((roll0 / (den.real**2 + den.imag**2) * om**2) @ w)
             sigma = new if k == 0 else np.sqrt(sigma * new)  # geometric damping of the fixed point
-        h = h0[None] - coef[..., None] * hg[None, :, None, :]  # (nw, nf, nb, nc)
-        return spectra_in_sea(h.real**2 + h.imag**2, parts.wave)
+        a = c / (1.0 + c * g[None, :, 3])  # at the last iteration's damping, as the loop has always returned it
+        s0 = (wave @ (h0.real**2 + h0.imag**2))[:, :, 0, :]  # Σ_β S |H₀|²: (nw, nf, nc)
+        cross = (wave @ (np.conj(h0) * x4[:, :, None]))[:, :, 0, :]  # Σ_β S H̄₀ ξ₄
+        out = s0 - 2.0 * (a[..., None] * hg[None] * cross).real + (a.real**2 + a.imag**2)[..., None] * (
+            hg.real**2 + hg.imag**2)[None] * roll0[..., None]
+        return np.maximum(out, 0.0).transpose(0, 2, 1)  # (nw, nc, nf), as spectra_in_sea
 
 
 class Moonpool(Effect):

@@ -158,10 +158,14 @@ class SpectralModel:
         H = -(om**2) * (M + A) - 1j * om * (B + Bv) + C
         t = transfer_vectors(self._channels, self.omega, lh.draft, db.g)[0]
 
+        found = []  # shared by the shallow copies `parts` hands out for this loading
+
         def roll_mode():
-            w_roll = float(natural_frequencies(db, loading, dofs=(3,))[0, 0])
-            a44 = (1 - w) * db.added_mass[i0, :, 3, 3] + w * db.added_mass[i1, :, 3, 3]
-            return w_roll, float(M[3, 3] + np.interp(w_roll, db.omega, a44))
+            if not found:
+                w_roll = float(natural_frequencies(db, loading, dofs=(3,))[0, 0])
+                a44 = (1 - w) * db.added_mass[i0, :, 3, 3] + w * db.added_mass[i1, :, 3, 3]
+                found.append((w_roll, float(M[3, 3] + np.interp(w_roll, db.omega, a44))))
+            return found[0]
 
         wave = self.data.wave.copy() if self.data is not None else np.zeros((0, om.shape[0], db.wave_direction.size))
         parts = ModelParts(omega=self.omega, impedance=H, force=F, transfer=t, wave=wave,
