@@ -23,6 +23,7 @@ from benchmarks import (
 BENCHMARKS = {"channel_sigma": bench_channel_sigma.run, "synthesis": bench_synthesis.run, "filter": bench_filter.run,
               "ingest": bench_ingest.run, "ukf": bench_ukf.run, "dbi": bench_dbi.run, "batch": bench_batch.run,
               "predict": bench_predict.run, "diagnose": bench_diagnose.run,
+              "diagnose_stage": bench_diagnose.stage_with_calibration,
               "modes": bench_modes.run, "sea": bench_sea.run,
               "simulate_day": bench_simulate_day.run, "day_run": bench_day_run.run, "run_memory": bench_run_memory.run}
 

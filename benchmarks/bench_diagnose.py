@@ -181,3 +181,60 @@ def _calibration_cost(vessel) -> dict:
             "selection_calibrated_s": round(seconds["calibrated"], 1),
             "calibration_cost_ratio": round(seconds["calibrated"] / seconds["uncalibrated"], 1),
             "named_uncalibrated": named["uncalibrated"], "named_calibrated": named["calibrated"]}
+
+
+def stage_with_calibration(hours: float = 16.0, keep: str | None = None) -> dict:
+    """`seatune diagnose` as a user runs it, without and with the calibrated decision (19 null replicas): the sample
+    vessel drifting `hours` h (≈ 12 accepted windows at 16 h) with a hidden moonpool, so that a candidate passes the
+    fixed rule and every replica is fitted. Each diagnose is a fresh process after `seatune tune`; issue 17's target
+    is the calibrated stage under 60 s for 12 windows on 2 cores, reported here with the ratio to the uncalibrated.
+    `keep`: a folder to work in and leave (default a temporary one)."""
+    import re
+    import subprocess
+    import sys
+    import tempfile
+    import time
+
+    import pandas as pd
+    import yaml
+
+    from benchmarks.bench_simulate_day import day_scenario
+    from seatune.parallel import workers
+
+    out = {"name": "diagnose_stage_calibrated", "workers": workers()}
+    with tempfile.TemporaryDirectory() as scratch:
+        tmp = Path(keep or scratch)
+        tmp.mkdir(parents=True, exist_ok=True)
+        scenario = day_scenario(tmp)
+        data = yaml.safe_load(scenario.read_text())
+        data["segments"][0]["duration"] = hours * 3600.0
+        data["effects"] = [{"kind": "moonpool", "omega_p": 1.15, "zeta_p": 0.08, "area": 36.0, "x": 20.0, "y": 0.0}]
+        scenario.write_text(yaml.safe_dump(data, sort_keys=False))
+        subprocess.run([sys.executable, "-m", "seatune", "simulate", str(scenario), "--out", str(tmp / "day")],
+                       capture_output=True, text=True, check=True, cwd=ROOT)
+        day = tmp / "day"
+        run_yaml = yaml.safe_load((ROOT / "configs/runs/sample.yaml").read_text())
+        run_yaml.update(run_dir=str(tmp / "run"), vessel=str(ROOT / "configs/vessels/sample_osv.yaml"))
+        run_yaml["logs"][0]["path"] = str(next(day.glob("*.mcap")))
+        run_yaml["logs"][1]["path"] = str(next(day.glob("*_gnss.csv")))
+        run_yaml["hindcast"]["path"] = str(next(day.glob("*_era5.nc")))
+        run_yaml.setdefault("diagnose", {})["moonpool_position"] = [20.0, 0.0]
+        for label, replicates in (("uncalibrated", 0), ("calibrated", 19)):
+            run_yaml["diagnose"]["calibration"] = {"replicates": replicates}
+            path = tmp / f"{label}.yaml"
+            path.write_text(yaml.safe_dump(run_yaml, sort_keys=False))
+            if label == "uncalibrated":
+                subprocess.run([sys.executable, "-m", "seatune", "tune", str(path)], capture_output=True, text=True,
+                               check=True, cwd=ROOT)
+            t = time.perf_counter()
+            done = subprocess.run([sys.executable, "-m", "seatune", "diagnose", str(path), "--force", "diagnose"],
+                                  capture_output=True, text=True, check=True, cwd=ROOT)
+            out[f"{label}_s"] = round(time.perf_counter() - t, 1)
+            d = pd.read_parquet(tmp / "run" / "diagnosis.parquet")
+            named = d[d["selected"].astype(bool)]
+            out[f"{label}_named"] = ",".join(named["effect"]) or "none"
+            out[f"{label}_false_alarm_p"] = [round(float(p), 3) for p in named["false_alarm_p"]]
+            m = re.search(r"on (\d+) windows \((\d+) held out\)", done.stdout)
+            out["windows"], out["held_out"] = (int(m.group(1)), int(m.group(2))) if m else (None, None)
+    out["calibration_cost_ratio"] = round(out["calibrated_s"] / out["uncalibrated_s"], 2)
+    return out
