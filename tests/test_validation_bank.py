@@ -95,6 +95,37 @@ def test_a_trial_row_and_the_bank_figures_by_hand():
     assert conf.loc["clean", "moonpool"] == 1 and conf.loc["clean", "none"] == 1 and conf.values.sum() == 3
 
 
+def test_a_named_effects_parameters_and_gap_by_hand():
+    """Issue 17's figures: the last step's fitted parameters (an effect named earlier as `effect.parameter`)
+    against the truth, and that step's held-out gap shrink; a wrongly named effect is not scored."""
+    import json
+
+    truth = _truth("d", "compound", []) | {"effects": [
+        {"kind": "moonpool", "omega_p": 1.0, "area": 40.0, "zeta_p": 0.1, "x": 0.0, "y": 0.0},
+        {"kind": "imu_lever_arm", "dx": 48.0, "dy": 0.5, "dz": -0.4, "origin_mistake": True}]}
+    diag = pd.DataFrame({
+        "step": [1, 1, 2], "given": ["", "", "moonpool"], "effect": ["none", "moonpool", "imu_lever_arm"],
+        "fitted": ["{}", json.dumps({"omega_p": 1.05, "area": 41.0}),
+                   json.dumps({"moonpool.omega_p": 1.02, "moonpool.area": 51.0, "dx": 47.2, "dy": 1.6, "dz": 0.1})],
+        "selected": [False, True, True], "gap_before_holdout": [0.0, 0.4, 0.4], "gap_after_holdout": [0.0, 0.3, 0.1]})
+    row = score_trial(truth, _artefacts(set(), 8.0, 0.1) | {"diagnosis": diag}, {"roll": 0.5})
+    assert row["verdict"] == "hit"
+    assert row["moonpool_omega_p_fitted"] == 1.02 and row["moonpool_omega_p_within"]  # 2 % < 3 %
+    assert row["moonpool_area_within"] is False  # 27.5 % > 25 %
+    assert row["imu_lever_arm_dx_within"] and row["imu_lever_arm_dy_within"] is False and row["imu_lever_arm_dz_within"]
+    assert row["heldout_gap_shrink"] == pytest.approx(0.75)
+    assert row["anti_roll_tank_omega_t_within"] is None and np.isnan(row["quadratic_roll_damping_q_fitted"])
+    wrong = score_trial(_truth("e", "anti_roll_tank", []) | {"effects": [{"kind": "anti_roll_tank", "omega_t": 0.5}]},
+                        _artefacts(set(), 8.0, 0.1) | {"diagnosis": diag}, {"roll": 0.5})
+    assert wrong["verdict"] == "wrong_effect" and np.isnan(wrong["heldout_gap_shrink"])
+    m = bank_metrics(pd.DataFrame([row, wrong])).set_index(["metric", "group"])
+    assert m.loc[("effect_parameter_within_tolerance", "moonpool.omega_p"), "value"] == 1.0
+    assert m.loc[("effect_parameter_within_tolerance", "imu_lever_arm.dy"), "value"] == 0.0
+    assert m.loc[("effect_parameter_within_tolerance", "anti_roll_tank.omega_t"), "n"] == 0
+    assert m.loc[("heldout_gap_halved", "correctly named"), "value"] == 1.0
+    assert m.loc[("heldout_gap_halved", "correctly named"), "n"] == 1
+
+
 CI_PAIR = ["ci_osv_clean_000", "ci_barge_imu_misalignment_005"]  # both hulls; a clean trial and an effect
 
 

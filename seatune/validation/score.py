@@ -19,7 +19,13 @@ PARAMETERS = ("gmt_fs", "r44", "beta44", "xcg", "r55")
 # issue 15's targets: parameter → (tolerance, "abs" | "rel")
 PARAMETER_TOLERANCE = {"gmt_fs": (0.05, "abs"), "r44": (0.02, "rel"), "beta44": (0.005, "abs")}
 TARGETS = {"false_alarm_rate": 0.05, "effect_hit_rate": 0.90, "compound_both_rate": 0.80, "omega_reported": 1.0,
-           "omega_within_2pct": 1.0, "parameter_within_tolerance": 1.0, "coverage_2sigma": 0.90}
+           "omega_within_2pct": 1.0, "parameter_within_tolerance": 1.0, "coverage_2sigma": 0.90,
+           "effect_parameter_within_tolerance": 1.0, "heldout_gap_halved": 1.0}
+# issue 17's targets for a correctly named effect's fitted parameters: effect → parameter → (tolerance, kind)
+EFFECT_TOLERANCE = {"moonpool": {"omega_p": (0.03, "rel"), "area": (0.25, "rel")},
+                    "imu_lever_arm": {"dx": (1.0, "abs"), "dy": (1.0, "abs"), "dz": (1.0, "abs")},
+                    "quadratic_roll_damping": {"q": (0.25, "rel")},
+                    "anti_roll_tank": {"omega_t": (0.03, "rel")}}
 
 
 def verdict(true_effects: set[str], named: set[str]) -> str:
@@ -118,7 +124,41 @@ def score_trial(truth: dict, artefacts: dict[str, pd.DataFrame | None], model_mo
                 f"omega_{d}_measured_rel_error": measured.get(d, {}).get("omega_n", np.nan) / t - 1}
     row["heldout_error_prior"] = heldout_error(artefacts.get("validation"), "predicted_prior")
     row["heldout_error_tuned"] = heldout_error(artefacts.get("validation"), "predicted_tuned")
-    return row
+    return row | named_effect_scores(truth.get("effects") or [], diag)
+
+
+def named_effect_scores(true_effects: list[dict], diag: pd.DataFrame | None) -> dict:
+    """Issue 17's figures of a trial whose effects were named: each correctly named effect's fitted parameters
+    against the truth (as the last selected step refitted them; a parameter of an effect named earlier is
+    `effect.parameter` there), and the held-out gap of that step before and after (its shrink)."""
+    import json
+
+    out = {f"{e}_{p}_{k}": (None if k == "within" else np.nan)
+           for e, params in EFFECT_TOLERANCE.items() for p in params for k in ("truth", "fitted", "within")}
+    out["heldout_gap_shrink"] = np.nan
+    if diag is None or "fitted" not in diag or not diag["selected"].astype(bool).any():
+        return out
+    chosen = diag[diag["selected"].astype(bool) & diag["effect"].isin(VESSEL_EFFECTS)]
+    if chosen.empty:
+        return out
+    last = chosen.loc[chosen["step"].idxmax()]
+    fitted = json.loads(last["fitted"]) if isinstance(last["fitted"], str) else {}
+    named = set(chosen["effect"]) | {g for g in str(last["given"] or "").split("+") if g}
+    right = False
+    for effect in true_effects:
+        kind = effect["kind"]
+        if kind not in named:
+            continue
+        right = True
+        for p, (tol, how) in EFFECT_TOLERANCE.get(kind, {}).items():
+            value = fitted.get(p if last["effect"] == kind else f"{kind}.{p}", np.nan)
+            t = float(effect[p])
+            out |= {f"{kind}_{p}_truth": t, f"{kind}_{p}_fitted": float(value),
+                    f"{kind}_{p}_within": bool(abs(value - t) <= tol * (abs(t) if how == "rel" else 1.0))
+                    if np.isfinite(value) else None}
+    if right and last["gap_before_holdout"] > 0:
+        out["heldout_gap_shrink"] = float(1.0 - last["gap_after_holdout"] / last["gap_before_holdout"])
+    return out
 
 
 def match_windows(truth_windows: list[dict], windows: pd.DataFrame) -> dict[str, dict]:
@@ -215,10 +255,19 @@ def sea_metrics(sea: pd.DataFrame, estimate: str = "final") -> pd.DataFrame:
     return pd.DataFrame(out)
 
 
+EFFECT_UNITS = {"omega_p": "rad/s", "area": "m^2", "dx": "m", "dy": "m", "dz": "m", "q": "1/rad", "omega_t": "rad/s"}
+
+
 def summary_units(columns) -> dict[str, str]:
     units = {}
+    effect_columns = {f"{e}_{p}_{k}": EFFECT_UNITS[p] for e, params in EFFECT_TOLERANCE.items() for p in params
+                      for k in ("truth", "fitted")}
     for c in columns:
-        if c.startswith("omega_") and c.endswith(("_truth", "_estimate", "_model_at_truth")):
+        if c in effect_columns:
+            units[c] = effect_columns[c]
+        elif c == "heldout_gap_shrink":
+            units[c] = "dimensionless"
+        elif c.startswith("omega_") and c.endswith(("_truth", "_estimate", "_model_at_truth")):
             units[c] = "rad/s"
         elif c.endswith(("_rel_error", "_model_rel_error")) or c.startswith("heldout_error"):
             units[c] = "dimensionless"
@@ -292,6 +341,16 @@ def bank_metrics(summary: pd.DataFrame) -> pd.DataFrame:
         tuned = ok[f"omega_{d}_tuned_model_rel_error"].dropna().abs()
         add("tuned_model_mode_median_abs_rel_error", d, float(tuned.median()) if len(tuned) else np.nan, len(tuned))
         add("tuned_model_mode_within_2pct", d, *_rate(tuned <= 0.02))
+    for effect, params in EFFECT_TOLERANCE.items():  # issue 17: where the effect was named correctly
+        for p in params:
+            if f"{effect}_{p}_within" in ok:
+                add("effect_parameter_within_tolerance", f"{effect}.{p}", *_rate(ok[f"{effect}_{p}_within"]),
+                    TARGETS["effect_parameter_within_tolerance"])
+    if "heldout_gap_shrink" in ok:
+        shrink = ok["heldout_gap_shrink"].dropna()
+        add("heldout_gap_halved", "correctly named", *_rate(shrink >= 0.5), TARGETS["heldout_gap_halved"])
+        add("heldout_gap_median_shrink", "correctly named", float(shrink.median()) if len(shrink) else np.nan,
+            len(shrink))
     for col in ("heldout_error_prior", "heldout_error_tuned"):
         v = ok[col].dropna()
         add(f"median_{col}", "all", float(v.median()) if len(v) else np.nan, len(v))
