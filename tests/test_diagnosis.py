@@ -239,6 +239,34 @@ def test_compound_trial_names_both_effects_in_turn(sample_model):
     assert all(abs(fitted["imu_lever_arm"][k] - lever[k]) < 1.0 for k in ("dx", "dy", "dz")), fitted
 
 
+def test_refine_refits_a_named_effect_in_another_sea_from_where_it_stood(sample_model):
+    """One round of diagnose's alternation with the sea: a lever arm fitted in a sea whose spectrum is tilted
+    (ω^1.5, too much energy high) comes out wrong; refitted (`refine`, from that fit) in the right sea it is the
+    planted one again, and refined in the sea it was fitted in it stays where it was (expected spectra of the
+    model with the effect, no noise)."""
+    import copy
+
+    rng = np.random.default_rng(5)
+    states = trials.sea_states(rng, 6)
+    windows = trials.simulate_windows(sample_model, trials.TRUTH, None, states, trials.CHANNELS, 900.0, rng)
+    right = trials.window_set(sample_model, windows, states, ["train", "train", "holdout"] * 2, np.ones(6))
+    truth_phi = np.array([trials.TRUTH[p.name] for p in trials.PARAMETERS])
+    effect, planted = EFFECT["imu_lever_arm"], {"dx": 6.0, "dy": -3.0, "dz": 4.0}
+    right.measured = Diagnoser(sample_model, trials.PARAMETERS, right, truth_phi).model.spectra(truth_phi, effect,
+                                                                                              planted)
+    wrong = copy.copy(right)
+    wrong.wave = right.wave * (right.omega_fine / right.omega_fine.mean())[None, :, None] ** 1.5
+    in_wrong = Diagnoser(sample_model, trials.PARAMETERS, wrong, truth_phi)
+    in_wrong.fit(None)
+    first = in_wrong.fit(effect)
+    assert max(abs(first.params[k] - v) for k, v in planted.items()) > 1.0  # the sea's error went into the arm
+    again = in_wrong.refine(first)
+    assert again.params == pytest.approx(first.params, abs=0.05)
+    refined = Diagnoser(sample_model, trials.PARAMETERS, right, truth_phi).refine(first)
+    assert refined.params == pytest.approx(planted, abs=0.1)
+    assert refined.nll_train < first.nll_train  # (each on its own data)
+
+
 def test_a_parameter_at_its_search_bound_widens_to_the_hull_limit(sample_model):
     """A moonpool wider than the search's 8 % of the waterplane: the fit stops at the search bound, widens the area
     once to the hull's 20 % and finds the planted area (expected spectra of the model with it, no noise)."""
@@ -367,6 +395,8 @@ def test_diagnose_writes_the_design_tables(diagnosed):
     if not named:
         assert "no known effect explains the misfit" in line or "no effect needed" in line
         assert not (out / "augmented_vessel.yaml").exists()
+    # no vessel effect named: nothing to alternate with the sea
+    assert (d["fitted_with_sea"] == "").all() and (d["alternation_rounds"] == 0).all()
     again = run_cli("diagnose", tmp / "run.yaml")
     assert "diagnose: up to date (skipped)" in again.stdout
 
@@ -450,7 +480,14 @@ def test_full_simulated_trial_with_a_tank_is_diagnosed(tmp_path):
     assert res.returncode == 0, res.stderr
     assert "named anti_roll_tank" in res.stdout.splitlines()[-1]
     augmented = tmp_path / "run" / "augmented_vessel.yaml"
-    assert yaml.safe_load(augmented.read_text())["effects"][0]["kind"] == "anti_roll_tank"
+    entry = yaml.safe_load(augmented.read_text())["effects"][0]
+    assert entry["kind"] == "anti_roll_tank"
+    # alternated with the sea (refitted through the tank): the YAML holds the alternated values
+    d = pd.read_parquet(tmp_path / "run" / "diagnosis.parquet")
+    final = d[d["selected"]].iloc[-1]
+    assert final["alternation_rounds"] >= 1 and "alternated with the sea" in res.stdout
+    assert json.loads(final["fitted_with_sea"]) == pytest.approx({k: entry[k] for k in ("omega_t", "zeta_t", "mu")},
+                                                                  rel=1e-5)
     assert run_cli("vessel", "info", augmented).returncode == 0
     # re-tune with the real backend on the augmented vessel: the loading moves towards the truth (A7's lesson)
     run.update(vessel=str(augmented), run_dir=str(tmp_path / "retuned"))

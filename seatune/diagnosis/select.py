@@ -229,6 +229,11 @@ class Diagnoser:
         return Fit(effect.name if effect else "none", params, phi, self.nll(phi, effect, params), nll_h,
                    len(effect.parameters) if effect else 0, bool(result.success), std, effect_used=effect)
 
+    def refine(self, fit: Fit) -> Fit:
+        """`fit`'s effects refitted on this Diagnoser's data from its parameters and loading: a round of diagnose's
+        alternation with the sea (the windows' sea refitted through the named effects, then the effects in it)."""
+        return self._fit(fit.effect_used, (), fit, x_from=fit)
+
     def _scan(self, x0, effect, bands):
         p = len(self.parameters)
         parts0 = self.model.parts(self.phi_start)

@@ -311,6 +311,9 @@ class DiagnoseSettings(Strict):
     # (a sea-side correction named first does not count). Not above 1 by default: on the blind bank 3 raised
     # clean-hull false alarms 6 → 10 of 24 for one more tank, one more misalignment and one compound pair in full
     max_effects: Annotated[int, Field(ge=1, le=3)] = 1
+    # rounds of alternation with the sea once a vessel effect is named (its parameters refitted in the sea refitted
+    # through it); 0: the parameters of the selection, in the sea stage's sea
+    alternation_rounds: Annotated[int, Field(ge=0, le=5)] = 2
     calibration: DiagnoseCalibration = DiagnoseCalibration()
 
 

@@ -528,6 +528,11 @@ def diagnosis_section(inp: ReportInputs) -> str | None:
                    f"{row['gap_after_holdout']:.3f}, σ error {100 * row['sigma_error_before_holdout']:.1f} % → "
                    f"{100 * row['sigma_error_after_holdout']:.1f} % ({row['out_of_sample']}). Written to "
                    "augmented_vessel.yaml.")
+        rounds = int(row.get("alternation_rounds", 0) or 0)
+        if rounds:  # diagnose alternated the named effects with the sea refitted through them
+            verdict += (f" Alternated with the sea refitted through {'it' if len(chosen) == 1 else 'them'} "
+                        f"({rounds} round{'s' if rounds > 1 else ''}): "
+                        f"{H.esc(own_parameters_text(json.loads(row['fitted_with_sea'])))}, the values written.")
     elif row["bands_before"] != "no band of systematic misfit":
         verdict = "<b>No known effect explains the misfit</b>; the unexplained bands are listed below."
     else:

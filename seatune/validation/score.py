@@ -142,7 +142,8 @@ def named_effect_scores(true_effects: list[dict], diag: pd.DataFrame | None) -> 
     if chosen.empty:
         return out
     last = chosen.loc[chosen["step"].idxmax()]
-    fitted = json.loads(last["fitted"]) if isinstance(last["fitted"], str) else {}
+    refined = last.get("fitted_with_sea", "")  # after diagnose's alternation with the sea, where it ran
+    fitted = json.loads(refined or last["fitted"]) if isinstance(last["fitted"], str) else {}
     named = set(chosen["effect"]) | {g for g in str(last["given"] or "").split("+") if g}
     right = False
     for effect in true_effects:
