@@ -368,7 +368,7 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     return {"skipped": False, "windows": len(data.window_ids), "holdout": int((~train).sum()),
             "candidates": int((table["step"] == 1).sum()) - 1, "named": diag.named,
             "steps": [{"effect": r.effect, "gain_holdout": float(r.gain_holdout),
-                       "false_alarm_p": float(r.false_alarm_p), "fitted": json.loads(r.fitted)}
+                       "false_alarm_p": float(r.false_alarm_p), "fitted": json.loads(r.fitted_with_sea or r.fitted)}
                       for r in chosen.itertuples()],
             "not_significant": [f"{r.effect} (p {r.false_alarm_p:.2g})" for r in table.itertuples()
                                 if np.isfinite(r.false_alarm_p) and not r.eligible],
