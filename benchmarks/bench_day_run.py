@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from benchmarks.bench_simulate_day import day_scenario
+from benchmarks.bench_simulate_day import day_run_yaml, day_scenario
 from benchmarks.timing import best_of
 from seatune.parallel import WORKERS_ENV
 from seatune.parallel import workers as workers_available
@@ -78,11 +78,7 @@ def run() -> dict:
         subprocess.run([sys.executable, "-m", "seatune", "simulate", str(scenario), "--out", str(tmp / "day")],
                        capture_output=True, text=True, check=True, cwd=ROOT)
         day = tmp / "day"
-        run_yaml = yaml.safe_load((ROOT / "configs/runs/sample.yaml").read_text())
-        run_yaml.update(run_dir=str(tmp / "run"), vessel=str(ROOT / "configs/vessels/sample_osv.yaml"))
-        run_yaml["logs"][0]["path"] = str(next(day.glob("*.mcap")))
-        run_yaml["logs"][1]["path"] = str(next(day.glob("*_gnss.csv")))
-        run_yaml["hindcast"]["path"] = str(next(day.glob("*_era5.nc")))
+        run_yaml = day_run_yaml(day, tmp / "run")
         (tmp / "run.yaml").write_text(yaml.safe_dump(run_yaml, sort_keys=False))
         for label, workers in (("serial", "1"), ("", "")):  # the reference first: one worker process per stage
             shutil.rmtree(tmp / "run", ignore_errors=True)

@@ -198,7 +198,7 @@ def stage_with_calibration(hours: float = 16.0, keep: str | None = None) -> dict
     import pandas as pd
     import yaml
 
-    from benchmarks.bench_simulate_day import day_scenario
+    from benchmarks.bench_simulate_day import day_run_yaml, day_scenario
     from seatune.parallel import workers
 
     out = {"name": "diagnose_stage_calibrated", "workers": workers()}
@@ -213,11 +213,7 @@ def stage_with_calibration(hours: float = 16.0, keep: str | None = None) -> dict
         subprocess.run([sys.executable, "-m", "seatune", "simulate", str(scenario), "--out", str(tmp / "day")],
                        capture_output=True, text=True, check=True, cwd=ROOT)
         day = tmp / "day"
-        run_yaml = yaml.safe_load((ROOT / "configs/runs/sample.yaml").read_text())
-        run_yaml.update(run_dir=str(tmp / "run"), vessel=str(ROOT / "configs/vessels/sample_osv.yaml"))
-        run_yaml["logs"][0]["path"] = str(next(day.glob("*.mcap")))
-        run_yaml["logs"][1]["path"] = str(next(day.glob("*_gnss.csv")))
-        run_yaml["hindcast"]["path"] = str(next(day.glob("*_era5.nc")))
+        run_yaml = day_run_yaml(day, tmp / "run")
         run_yaml.setdefault("diagnose", {})["moonpool_position"] = [20.0, 0.0]
         for label, replicates in (("uncalibrated", 0), ("calibrated", 19)):
             run_yaml["diagnose"]["calibration"] = {"replicates": replicates}

@@ -34,6 +34,16 @@ def day_scenario(folder: Path) -> Path:
     return path
 
 
+def day_run_yaml(day: Path, run_dir: Path) -> dict:
+    """The sample's run YAML pointed at a simulated day's files (`day`: `seatune simulate`'s output folder)."""
+    run_yaml = yaml.safe_load((ROOT / "configs/runs/sample.yaml").read_text())
+    run_yaml.update(run_dir=str(run_dir), vessel=str(ROOT / "configs/vessels/sample_osv.yaml"))
+    run_yaml["logs"][0]["path"] = str(next(day.glob("*.mcap")))
+    run_yaml["logs"][1]["path"] = str(next(day.glob("*_gnss.csv")))
+    run_yaml["hindcast"]["path"] = str(next(day.glob("*_era5.nc")))
+    return run_yaml
+
+
 def run() -> dict:
     from seatune.pipeline.vessel import open_vessel
     from seatune.simulate import log_writers as lw

@@ -270,6 +270,15 @@ def sea_with_effects(run, vessel, parameters, phi, augmented: Path, echo=print) 
     return summary
 
 
+def run_diagnoser(run, vessel, parameters, data, phi_start, null=None):
+    """A Diagnoser of `data` with the run's hindcast uncertainty (its likelihood's sea-state error)."""
+    from seatune.diagnosis.select import Diagnoser
+
+    unc = run.spec.hindcast.uncertainty
+    return Diagnoser(vessel, parameters, data, phi_start, hs_rel_std=unc.hs_rel_std, tp_std_s=unc.tp_std_s,
+                     dir_std_deg=unc.dir_std_deg, null=null)
+
+
 def alternate_with_sea(run, vessel, diagnoser, channels, diag, augmented: Path, max_rounds: int, echo=print,
                        rel_tol: float = 0.01):
     """Diagnose alternated with the sea (issue 16, as Han A6/A7 alternate sea and vessel): the named effects and
@@ -280,13 +289,10 @@ def alternate_with_sea(run, vessel, diagnoser, channels, diag, augmented: Path, 
     sea; the augmented vessel YAML takes the alternated values. Returns (the final Fit, the rounds made)."""
     from dataclasses import replace
 
-    from seatune.diagnosis.select import Diagnoser
-
-    fit, moves, unc = diag.winner, [], run.spec.hindcast.uncertainty
+    fit, moves = diag.winner, []
     for _ in range(max_rounds):
         data = window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE)
-        new = Diagnoser(vessel, diagnoser.parameters, data, diagnoser.phi_start, hs_rel_std=unc.hs_rel_std,
-                        tp_std_s=unc.tp_std_s, dir_std_deg=unc.dir_std_deg).refine(fit)
+        new = run_diagnoser(run, vessel, diagnoser.parameters, data, diagnoser.phi_start).refine(fit)
         moved = max(abs(new.params[q.name] - fit.params[q.name])
                     / max(rel_tol * abs(fit.params[q.name]), 1e-3 * (q.upper - q.lower))
                     for q in fit.effect_used.parameters)  # in units of the tolerance
@@ -307,7 +313,6 @@ def alternate_with_sea(run, vessel, diagnoser, channels, diag, augmented: Path, 
 def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     from seatune.diagnosis.effects import EFFECT_NAMES, SEA_SIDE, library
     from seatune.diagnosis.residuals import describe
-    from seatune.diagnosis.select import Diagnoser
     from seatune.io.parquet import write_table
     from seatune.io.rundir import fingerprint, is_fresh
 
@@ -335,11 +340,7 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     if unknown:
         raise UserError(str(run.path), "diagnose.effects", f"unknown effect(s): {', '.join(unknown)}")
     data = window_set(run, vessel, channels)
-    diagnoser = Diagnoser(vessel, parameters, data, phi_start,
-                          hs_rel_std=run.spec.hindcast.uncertainty.hs_rel_std,
-                          tp_std_s=run.spec.hindcast.uncertainty.tp_std_s,
-                          dir_std_deg=run.spec.hindcast.uncertainty.dir_std_deg,
-                          null=null_sea(settings.calibration))
+    diagnoser = run_diagnoser(run, vessel, parameters, data, phi_start, null=null_sea(settings.calibration))
     # the tank's range from the roll mode its scan starts from (the model at the start loading)
     effects = library(settings.effects, moonpool_position=settings.moonpool_position, vessel=vessel,
                       omega_roll=diagnoser.model.parts(phi_start).omega_roll)
