@@ -285,10 +285,8 @@ class _Problem:
                                (-(coh_q.imag - coh0.imag) / self.coh_std).reshape(len(phi), -1)], axis=1)
         jac = np.zeros((data.shape[1] + x.size, x.size))
         jac[: data.shape[1]] = (data / step[:, None]).T
-        for k, prior in enumerate(priors):
-            std = prior.std() if prior is not None else _FREE_STD
-            rows = data.shape[1] + 5 * k + np.arange(5)
-            jac[rows, 5 * k + np.arange(5)] = np.where(np.isfinite(std), 1.0 / std, 0.0)
+        std = prior_std(priors).ravel()  # the prior terms' derivatives: 1/σ (0 where a term is absent)
+        jac[data.shape[1] + np.arange(x.size), np.arange(x.size)] = np.where(np.isfinite(std), 1.0 / std, 0.0)
         return jac
 
     def costs_with_added(self, x: np.ndarray, priors: list[PartitionPrior | None], added: np.ndarray) -> np.ndarray:
@@ -326,11 +324,16 @@ _LOWER = np.array([np.log(0.02), np.log(3.0), -np.inf, np.log(4.0), np.log(1.0)]
 _UPPER = np.array([np.log(15.0), np.log(25.0), np.inf, np.log(80.0), np.log(7.0)])
 
 
+def prior_std(priors: list[PartitionPrior | None]) -> np.ndarray:
+    """Each partition's prior standard deviations (P, 5); the weak free prior's for one absent from the hindcast."""
+    return np.array([p.std() if p is not None else _FREE_STD for p in priors])
+
+
 def prior_residuals(x: np.ndarray, priors: list[PartitionPrior | None]) -> np.ndarray:
     """Each partition's offset from its prior in the prior's standard deviations (P, 5), the direction signed; a
     partition absent from the hindcast (None) against the weak free prior, without a direction term."""
     mean = np.array([p.mean() if p is not None else _FREE_MEAN for p in priors])
-    std = np.array([p.std() if p is not None else _FREE_STD for p in priors])
+    std = prior_std(priors)
     d = x - mean
     d[:, 2] = signed_direction_deg(d[:, 2])
     return np.where(np.isfinite(std), d / std, 0.0)

@@ -346,7 +346,6 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
                       omega_roll=diagnoser.model.parts(phi_start).omega_roll)
     diag = diagnoser.run(effects, max_named=settings.max_effects)
     train = data.roles == "train"
-    table = diagnosis_table(diag, effects)
     meta = {"fingerprint": fp}
     if diag.winner is not None:
         augmented_vessel_yaml(vessel, diag, augmented)
@@ -359,9 +358,9 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
             # (a named sea-side correction is in the refitted sea already: it would be counted twice)
             alternated, rounds = alternate_with_sea(run, vessel, diagnoser, channels, diag, augmented,
                                                     settings.alternation_rounds, echo)
-            table = diagnosis_table(diag, effects, alternated, rounds)
     else:  # no vessel effect named: the sea stage's model stands
         run.artefact(DIAGNOSED_SEA_FILE).unlink(missing_ok=True)
+    table = diagnosis_table(diag, effects, alternated, rounds)
     write_table(residual_table(data, diag), outs[1], RESIDUAL_UNITS, meta)
     write_table(table, outs[0], DIAGNOSIS_UNITS, meta)
     chosen = table[table["selected"]]

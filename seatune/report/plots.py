@@ -38,7 +38,7 @@ def png(build: Callable[..., Figure], *args, **kwargs) -> str:
     if held is not None:
         held.append((build, args, kwargs))
         return f"\x00figure {len(held) - 1}\x00"
-    return _draw(build(*args, **kwargs))
+    return _build_and_draw((build, args, kwargs))
 
 
 def _draw(fig: Figure) -> str:
