@@ -189,6 +189,32 @@ def test_two_shapes_of_one_peak_are_one_system():
     assert wave_systems(parts) == [0, 0, 1, 2]
 
 
+@pytest.mark.parametrize("pair", [
+    [(1.57, 8.1, 153.0, 28.0, 4.1), (1.27, 10.9, 209.0, 11.0, 2.7)],  # wind sea and swell, 56° and 30 % in Tp apart
+    [(1.45, 8.6, 25.0, 21.0, 4.0), (1.03, 11.0, 344.0, 11.0, 7.0)],
+    [(0.94, 12.4, 194.0, 4.0, 7.0), (0.74, 14.4, 217.0, 16.0, 4.0)],  # one Ochi–Hubble swell fitted by two shapes
+    [(0.98, 12.3, 147.0, 8.0, 4.0), (1.11, 15.4, 138.0, 17.0, 4.0)],
+])
+def test_wave_systems_count_as_wavespectras_hanson_phillips_partitioning(pair):
+    """Pairs the blind bank's sea estimates held: one system or two as wavespectra's watershed + HP01 combining
+    finds in the pair's summed 2-D spectrum."""
+    import warnings
+
+    import wavespectra  # noqa: F401  (the .spec accessor)
+    import xarray as xr
+
+    freq, dirs = np.geomspace(0.035, 0.5, 60), np.arange(0.0, 360.0, 5.0)
+    x = np.array([[np.log(hs), np.log(tp), d, np.log(sp), np.log(g)] for hs, tp, d, sp, g in pair])
+    efth = partition_spectrum(2 * np.pi * freq, dirs, x) * 2 * np.pi * np.pi / 180.0  # m²/(Hz·deg)
+    ds = xr.Dataset({"efth": (("freq", "dir"), efth)}, coords={"freq": freq, "dir": dirs})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # no wind given: no wind-sea partition (partition 0 stays empty)
+        hs = ds.efth.spec.partition.hp01(hs_min=0.1, smooth=False).spec.hs().values
+    parts = [Partition(dict(zip(("hs", "tp", "dir_from_deg", "spread_deg", "gamma"), p, strict=True)), {}, None)
+             for p in pair]
+    assert len(set(wave_systems(parts))) == int((hs > 0.05).sum())
+
+
 @pytest.fixture(scope="module")
 def missing_swell_trial(tmp_path_factory):
     """One 45-min OSV window: a wind sea and a swell the bulk ERA5 hindcast holds (Hs 12 % low), and a second
