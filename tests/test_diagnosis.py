@@ -222,6 +222,29 @@ def test_hindcast_errors_are_not_taken_for_an_effect(sample_model):
     assert named == [None, None]
 
 
+def test_an_effect_in_every_other_window_only_is_not_named(sample_model):
+    """A displaced IMU in the even windows only, the odd ones clean (time-domain trial): no property of the ship
+    does that. The fixed train/held-out split alone would name the lever arm (its held-out windows 2 and 8 have
+    it); the 2-fold cross-validation fits it on the even windows and loses on the odd ones, and names nothing."""
+    from seatune.diagnosis.select import HOLDOUT_MIN
+    from tests.hidden_effect_trials import simulate_windows
+
+    rng = np.random.default_rng(3)
+    states = trials.sea_states(rng, 9)
+    lever = trials.EFFECTS["imu_lever_arm"]
+    windows = [simulate_windows(sample_model, trials.TRUTH, lever if i % 2 == 0 else None, [st], trials.CHANNELS,
+                                1800.0, rng, welch_segment_s=trials.SEGMENT_S)[0] for i, st in enumerate(states)]
+    roles = ["holdout" if i % 3 == 2 else "train" for i in range(9)]
+    data = trials.window_set(sample_model, windows, states, roles, np.exp(rng.normal(0.0, 0.05, 9)))
+    start = np.array([p.prior_mean for p in trials.PARAMETERS])
+    d = Diagnoser(sample_model, trials.PARAMETERS, data, start, hs_rel_std=0.05).run(
+        library(["imu_lever_arm", "moonpool"], moonpool_position=trials.MOONPOOL_AT), phi_before="refit")
+    row = next(r for r in d.rows if r["added"] == "imu_lever_arm")
+    assert row["gain_holdout"] > HOLDOUT_MIN and row["gain_train"] > row["bic_penalty"] and not row["at_bound"]
+    assert row["cross_fold_gain"] <= HOLDOUT_MIN and not row["eligible"], row["cross_fold_gain"]
+    assert d.named is None, d.named
+
+
 def test_compound_trial_names_both_effects_in_turn(sample_model):
     """A moonpool and a displaced IMU hidden together (time-domain trial): the greedy selection names the stronger,
     adds it, refits, and names the other; the held-out gap of the joint model shrinks by ≥ 50 % and both effects'

@@ -33,6 +33,8 @@ DIAGNOSIS_UNITS = {
     "joint_gain_holdout": "dimensionless; nat, over the model without effect",
     "false_alarm_p": "dimensionless; probability under the null (no effect, sea within its errors); NaN: not tested",
     "null_gain_q95": "dimensionless; nat, the null's 95 % quantile of the score (held-out gain)",
+    "cross_fold_gain": "dimensionless; nat, the smaller held-out gain of a 2-fold cross-validation over all windows "
+                       "(a vessel-side effect is named only above the held-out threshold); NaN: not tested",
     "at_bound": "", "widened": "", "eligible": "", "selected": "", "out_of_sample": "",
     "gap_before_train": "dimensionless",
     "gap_after_train": "dimensionless", "gap_before_holdout": "dimensionless",
@@ -178,7 +180,8 @@ def diagnosis_table(diag, effects, alternated=None, rounds: int = 0) -> pd.DataF
             "nll_train": f.nll_train, "nll_holdout": f.nll_holdout, "gain_train": r["gain_train"],
             "gain_holdout": r["gain_holdout"], "bic_penalty": r["bic_penalty"],
             "joint_gain_train": r["joint_gain_train"], "joint_gain_holdout": r["joint_gain_holdout"],
-            "false_alarm_p": r["false_alarm_p"], "null_gain_q95": r["null_gain_q95"], "at_bound": r["at_bound"],
+            "false_alarm_p": r["false_alarm_p"], "null_gain_q95": r["null_gain_q95"],
+            "cross_fold_gain": r["cross_fold_gain"], "at_bound": r["at_bound"],
             "widened": ", ".join(k.removeprefix(own) for k in f.widened), "eligible": bool(r["eligible"]),
             "selected": bool(r["selected"]), "out_of_sample": out_of_sample(g) if f.n_params else "",
             **{f"{k}_{when}_{role}": g[f"{k}_{role}_{when}"] for k in ("gap", "sigma_error")

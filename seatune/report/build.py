@@ -493,6 +493,9 @@ def _decision(r) -> str:
         why.append(f"no held-out window: training gain − BIC penalty ≤ {HOLDOUT_MIN:g} nats")
     if r.at_bound:
         why.append(f"at a bound: {r.at_bound}" + (" (search widened to the hull's limit)" if r.widened else ""))
+    cross = getattr(r, "cross_fold_gain", np.nan)
+    if not why and np.isfinite(cross) and cross <= HOLDOUT_MIN:
+        why.append(f"fits some windows only: 2-fold cross-validation gain {cross:.1f} nats ≤ {HOLDOUT_MIN:g}")
     if not why and np.isfinite(p) and not r.eligible:
         why.append(f"not significant: false-alarm p {p:.2g} against the calibrated null")
     if r.eligible and not why:
@@ -515,7 +518,7 @@ def diagnosis_section(inp: ReportInputs) -> str | None:
     if d is None or d.empty:
         return None
     older = {"step": 1, "given": "", "widened": "", "out_of_sample": "", "joint_gain_holdout": d["gain_holdout"],
-             "false_alarm_p": np.nan, "null_gain_q95": np.nan}
+             "false_alarm_p": np.nan, "null_gain_q95": np.nan, "cross_fold_gain": np.nan}
     d = d.assign(**{k: v for k, v in older.items() if k not in d})  # a diagnosis.parquet from before issue 17
     chosen = d[d["selected"]]
     row = chosen.iloc[-1] if len(chosen) else d[d["effect"] == "none"].iloc[0]  # the final model
@@ -542,11 +545,12 @@ def diagnosis_section(inp: ReportInputs) -> str | None:
     if len(chosen):
         body += H.para("Left after adding it: " + row["bands_after"], "")
     nat = {"held-out gain": "nat", "training gain": "nat", "BIC penalty": "nat", "null 95 %": "nat",
-           "joint held-out gain": "nat"}
+           "joint held-out gain": "nat", "cross-fold gain": "nat"}
     deciding = pd.DataFrame({"step": d["step"], "given": d["given"].replace("", "–"), "effect": d["effect"],
                              "decision": [_decision(r) for r in d.itertuples()],
                              "held-out gain": d["gain_holdout"], "training gain": d["gain_train"],
-                             "BIC penalty": d["bic_penalty"], "joint held-out gain": d["joint_gain_holdout"]})
+                             "BIC penalty": d["bic_penalty"], "joint held-out gain": d["joint_gain_holdout"],
+                             "cross-fold gain": d["cross_fold_gain"]})
     if np.isfinite(d["false_alarm_p"]).any():  # a calibrated run
         deciding["null 95 %"], deciding["false-alarm p"] = d["null_gain_q95"], d["false_alarm_p"]
     deciding["parameters"] = [_parameters(r) for r in d.itertuples()]
@@ -557,6 +561,7 @@ def diagnosis_section(inp: ReportInputs) -> str | None:
                     "`given`), joint gains over the model without effect; an effect is named when its held-out "
                     "gain exceeds "
                     f"{HOLDOUT_MIN:g} nats and its training gain the BIC penalty, with no parameter at a bound, "
+                    "a vessel-side effect also in each fold of a 2-fold cross-validation over the windows, "
                     "and (calibrated runs) the gain is unlikely under the null: data simulated without effect in a "
                     "sea and vessel model erring as estimates do (diagnose.calibration); p = share of null "
                     "replicas scoring as high",
