@@ -10,6 +10,7 @@ from scipy.special import digamma, polygamma
 from seatune.diagnosis.select import (
     BIN_CORRELATION,
     INDEPENDENT_FLOOR,
+    Diagnoser,
     NullSea,
     perturbed_wave,
     sampled_spectra,
@@ -99,6 +100,9 @@ def test_the_null_replicas_fitted_side_by_side_give_the_serial_p_values(sample_m
     the replica the first one made, and every p and null quantile equals the serial run's."""
     null = NullSea(hs_rel_std=0.3, tp_rel_std=0.1, dir_std_deg=20.0, spread_deg=20.0, model_error=0.6)
     effects = ["moonpool", "anti_roll_tank", "imu_lever_arm", "imu_misalignment", "hs_bias"]
+    # the calibration's bookkeeping only: the 2-fold cross-validation (which drops the second candidate, a wrong
+    # misalignment, before its calibration) passes every candidate here
+    monkeypatch.setattr(Diagnoser, "_cross_fold_gain", lambda self, fit, step_base: np.inf)
     tested = {}
     for workers in ("1", "2"):
         monkeypatch.setenv("SEATUNE_WORKERS", workers)

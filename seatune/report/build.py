@@ -480,8 +480,10 @@ def _decision(r) -> str:
     if r.effect == "none":
         return "baseline: the loading refitted without an effect"
     p = r.false_alarm_p
+    cross = getattr(r, "cross_fold_gain", np.nan)
     if r.selected:
         return (f"named at step {r.step}: the strongest eligible candidate"
+                + (f", in each fold of a 2-fold cross-validation (≥ {cross:.1f} nats)" if np.isfinite(cross) else "")
                 + (f", false-alarm p {p:.2g}" if np.isfinite(p) else ""))
     why = []
     if np.isfinite(r.gain_holdout):
@@ -493,7 +495,6 @@ def _decision(r) -> str:
         why.append(f"no held-out window: training gain − BIC penalty ≤ {HOLDOUT_MIN:g} nats")
     if r.at_bound:
         why.append(f"at a bound: {r.at_bound}" + (" (search widened to the hull's limit)" if r.widened else ""))
-    cross = getattr(r, "cross_fold_gain", np.nan)
     if not why and np.isfinite(cross) and cross <= HOLDOUT_MIN:
         why.append(f"fits some windows only: 2-fold cross-validation gain {cross:.1f} nats ≤ {HOLDOUT_MIN:g}")
     if not why and np.isfinite(p) and not r.eligible:
@@ -545,12 +546,11 @@ def diagnosis_section(inp: ReportInputs) -> str | None:
     if len(chosen):
         body += H.para("Left after adding it: " + row["bands_after"], "")
     nat = {"held-out gain": "nat", "training gain": "nat", "BIC penalty": "nat", "null 95 %": "nat",
-           "joint held-out gain": "nat", "cross-fold gain": "nat"}
+           "joint held-out gain": "nat"}
     deciding = pd.DataFrame({"step": d["step"], "given": d["given"].replace("", "–"), "effect": d["effect"],
                              "decision": [_decision(r) for r in d.itertuples()],
                              "held-out gain": d["gain_holdout"], "training gain": d["gain_train"],
-                             "BIC penalty": d["bic_penalty"], "joint held-out gain": d["joint_gain_holdout"],
-                             "cross-fold gain": d["cross_fold_gain"]})
+                             "BIC penalty": d["bic_penalty"], "joint held-out gain": d["joint_gain_holdout"]})
     if np.isfinite(d["false_alarm_p"]).any():  # a calibrated run
         deciding["null 95 %"], deciding["false-alarm p"] = d["null_gain_q95"], d["false_alarm_p"]
     deciding["parameters"] = [_parameters(r) for r in d.itertuples()]
