@@ -413,8 +413,8 @@ class Diagnoser:
         """2-fold cross-validation over all windows, alternate in time (Hastie et al. 2009 §7.10): the candidate
         and the loading fitted on one fold, its held-out gain on the other over the step's model fitted there; the
         smaller of the two [nat]. An effect of the ship helps whichever windows it is fitted on; a misfit of some
-        windows' sea does not carry over. Blind bank: a clean hull's lever arm gained −10.6 and 8.7 nats, its tank
-        0.7 and 34.8; a true moonpool 108 and 139, a true misalignment 30 and 28, a true tank 73 and 70."""
+        windows' sea does not carry over. Blind bank: clean hulls' lever arm −4.2, tank 0.7, misalignment 3.1 nats;
+        the true effects still named 30–3500 (a misalignment 30.2, tanks 43.5 and 70.8, a moonpool 55.7)."""
         return float(min(map_tasks(partial(self._fold_gain, fit, step_base), (0, 1))))
 
     def _fold_gain(self, fit: Fit, step_base: Fit, fold: int) -> float:
