@@ -153,8 +153,7 @@ class Diagnoser:
         self.parameters = list(parameters)
         self.data = data
         self.model = SpectralModel(vessel, [p.name for p in self.parameters], data)
-        self.train = data.roles == "train"
-        self.holdout = data.roles == "holdout"
+        self._take_roles()
         self.tau = max(2.0 * hs_rel_std, 1e-3)
         self.shape_var = (TP_FLANK_SLOPE * tp_std_s / data.tp) ** 2
         self.tp_std_s, self.dir_std_deg = tp_std_s, dir_std_deg
@@ -164,7 +163,6 @@ class Diagnoser:
         self._lo = np.array([p.lower for p in self.parameters])
         self._hi = np.array([p.upper for p in self.parameters])
         self._base = None
-        self.n_train = float(data.mask[self.train].sum() / BIN_CORRELATION)
 
     # --- likelihood -----------------------------------------------------------------------------------------
     def nll(self, phi, effect=None, params=None, which=None) -> float:
@@ -418,7 +416,7 @@ class Diagnoser:
         return float(min(map_tasks(partial(self._fold_gain, fit, step_base), (0, 1))))
 
     def _fold_gain(self, fit: Fit, step_base: Fit, fold: int) -> float:
-        rep = self._with_roles(np.where(np.arange(len(self.data.window_ids)) % 2 == fold, "train", "holdout"))
+        rep = self._with_data(roles=np.where(np.arange(len(self.data.window_ids)) % 2 == fold, "train", "holdout"))
         base = (rep.fit(None) if step_base.effect_used is None  # the effects named so far from where they stood
                 else rep._fit(step_base.effect_used, (), None, x_from=step_base))
         # the fold's own optimum: from its scan, or from where the fit on all windows stood (a misalignment's yaw
@@ -426,14 +424,19 @@ class Diagnoser:
         scanned, warm = rep.fit(fit.effect_used, start=base), rep._fit(fit.effect_used, (), None, x_from=fit)
         return base.nll_holdout - min(scanned, warm, key=lambda f: f.nll_train).nll_holdout
 
-    def _with_roles(self, roles: np.ndarray) -> Diagnoser:
-        """This Diagnoser with the windows' roles replaced (the same data, sea and model caches)."""
+    def _take_roles(self) -> None:
+        """The training / held-out masks and the training bins' count from the data's window roles."""
+        self.train, self.holdout = self.data.roles == "train", self.data.roles == "holdout"
+        self.n_train = float(self.data.mask[self.train].sum() / BIN_CORRELATION)
+
+    def _with_data(self, **changes) -> Diagnoser:
+        """This Diagnoser on its data with `changes` (WindowSet fields), sharing the model's caches; no base fit,
+        no calibration."""
         rep = copy.copy(self)
-        rep.data = dataclasses.replace(self.data, roles=np.asarray(roles))
+        rep.data = dataclasses.replace(self.data, **changes)
         rep.model = copy.copy(self.model)
         rep.model.data = rep.data
-        rep.train, rep.holdout = rep.data.roles == "train", rep.data.roles == "holdout"
-        rep.n_train = float(rep.data.mask[rep.train].sum() / BIN_CORRELATION)
+        rep._take_roles()
         rep._base, rep.null = None, None
         return rep
 
@@ -482,11 +485,7 @@ class Diagnoser:
     def _null_diagnoser(self, base: Fit, wave_given: np.ndarray, measured: np.ndarray) -> Diagnoser:
         """A Diagnoser of the drawn dataset, as the real data's: the hindcast's sea, searched at the null's
         loading."""
-        rep = copy.copy(self)
-        rep.data = dataclasses.replace(self.data, measured=measured, wave=wave_given)
-        rep.model = copy.copy(self.model)
-        rep.model.data = rep.data
-        rep._base, rep.null = None, None
+        rep = self._with_data(measured=measured, wave=wave_given)
         rep.phi_start = base.phi  # the null's loading: where the replica's fits start
         if rep.tp_std_s > 0 or rep.dir_std_deg > 0:  # its sea search at the null's loading, then one fit
             rep.data.wave = rep.sea_state_search(base.phi)

@@ -480,7 +480,7 @@ def _decision(r) -> str:
     if r.effect == "none":
         return "baseline: the loading refitted without an effect"
     p = r.false_alarm_p
-    cross = getattr(r, "cross_fold_gain", np.nan)
+    cross = r.cross_fold_gain
     if r.selected:
         return (f"named at step {r.step}: the strongest eligible candidate"
                 + (f", in each fold of a 2-fold cross-validation (≥ {cross:.1f} nats)" if np.isfinite(cross) else "")
