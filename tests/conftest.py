@@ -6,6 +6,18 @@ ROOT = Path(__file__).resolve().parents[1]
 SAMPLE_VESSEL = ROOT / "configs" / "vessels" / "sample_osv.yaml"
 
 
+# the longest files first (pytest --durations, 2 workers): xdist's --dist loadfile hands files out in collection
+# order, and a long file handed out last runs alone at the end (the last 3 % of the tests took 3.5 min of 19)
+LONGEST_FIRST = ("test_diagnosis.py", "test_validation_bank.py", "test_report.py", "test_batch.py",
+                 "test_ingest_errors.py", "test_predict.py", "test_identify_trials.py", "test_tune_sample.py",
+                 "test_sea_estimation.py", "test_simulated_files.py", "test_tuning_trials.py")
+
+
+def pytest_collection_modifyitems(config, items):
+    rank = {name: i for i, name in enumerate(LONGEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: each file keeps its own order
+
+
 @pytest.fixture(scope="session")
 def sample_model():
     from seatune.pipeline.vessel import open_vessel
