@@ -203,18 +203,36 @@ class Diagnoser:
                 fit = self._fit(wide, (), start, x_from=fit)
                 fit.widened = stuck
         if effect is None:
-            self._base = fit  # candidates start from the refitted loading without effect
+            self._base = fit = self._restarted(fit)  # candidates start from the refitted loading without effect
         return fit
+
+    def _restarted(self, fit: Fit) -> Fit:
+        """The fit without effect restarted from its optimum with a fresh curvature estimate until it gains less than
+        0.01 nat (at most 3 restarts): L-BFGS-B can stop short on its finite-difference gradient, and every
+        candidate's gain is counted from this fit (blind bank, osv_clean_016: one restart 3.98 nats lower, the gain
+        a quadratic roll damping had been named for)."""
+        for _ in range(3):
+            again = self._fit(None, (), None, x_from=fit)
+            gained = self._penalised(fit) - self._penalised(again)
+            if gained > 0:
+                fit = again
+            if gained < 0.01:
+                break
+        return fit
+
+    def _penalised(self, fit: Fit) -> float:
+        """The objective the fits minimise: training −ln p plus the loading's Gaussian prior."""
+        return fit.nll_train + 0.5 * float((((fit.phi - self._mean) / self._std) ** 2).sum())
 
     def _fit(self, effect, bands, start: Fit | None, x_from: Fit | None = None) -> Fit:
         p = len(self.parameters)
         x0 = np.zeros(p) if effect is None or start is None else (start.phi - self.phi_start) / self._std
+        if x_from is not None:
+            x0 = (x_from.phi - self.phi_start) / self._std
         bounds = [((lo - s0) / sd, (hi - s0) / sd) for lo, hi, s0, sd in
                   zip(self._lo, self._hi, self.phi_start, self._std, strict=True)]
         if effect is not None:
             values = x_from.params if x_from is not None else {q.name: q.initial for q in effect.parameters}
-            if x_from is not None:
-                x0 = (x_from.phi - self.phi_start) / self._std
             x0 = np.r_[x0, [(values[q.name] - q.lower) / (q.upper - q.lower) for q in effect.parameters]]
             bounds += [(0.0, 1.0)] * len(effect.parameters)
             if x_from is None:
