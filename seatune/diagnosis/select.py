@@ -186,8 +186,11 @@ class Diagnoser:
 
     def _objective(self, x, effect):
         phi, params = self._unpack(x, effect)
-        prior = 0.5 * float((((phi - self._mean) / self._std) ** 2).sum())
-        return self.nll(phi, effect, params) + prior
+        return self.nll(phi, effect, params) + self._prior(phi)
+
+    def _prior(self, phi) -> float:
+        """−ln of the loading's Gaussian prior (vessel-YAML priors), up to a constant."""
+        return 0.5 * float((((phi - self._mean) / self._std) ** 2).sum())
 
     # --- fitting --------------------------------------------------------------------------------------------
     def fit(self, effect=None, bands=(), start: Fit | None = None) -> Fit:
@@ -222,7 +225,7 @@ class Diagnoser:
 
     def _penalised(self, fit: Fit) -> float:
         """The objective the fits minimise: training −ln p plus the loading's Gaussian prior."""
-        return fit.nll_train + 0.5 * float((((fit.phi - self._mean) / self._std) ** 2).sum())
+        return fit.nll_train + self._prior(fit.phi)
 
     def _fit(self, effect, bands, start: Fit | None, x_from: Fit | None = None) -> Fit:
         p = len(self.parameters)
