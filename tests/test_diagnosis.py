@@ -202,7 +202,8 @@ def _run_trials(vessel, effects, seeds):
 
 @pytest.mark.parametrize("effect", list(trials.EFFECTS))
 def test_hidden_effect_is_named_and_closes_the_gap(sample_model, effect):
-    results = _run_trials(sample_model, [effect], [0, 1])
+    """One trial per effect (10 per effect in `make test-slow`: test_hidden_effect_trials_over_many_seeds)."""
+    results = _run_trials(sample_model, [effect], [0])
     named, before, after, err = _summary(results)
     assert named == 1.0, [d.named for _, d, _ in results]
     assert after <= 0.5 * before, (before, after)
@@ -288,6 +289,32 @@ def test_refine_refits_a_named_effect_in_another_sea_from_where_it_stood(sample_
     refined = Diagnoser(sample_model, trials.PARAMETERS, right, truth_phi).refine(first)
     assert refined.params == pytest.approx(planted, abs=0.1)
     assert refined.nll_train < first.nll_train  # (each on its own data)
+
+
+def test_the_fit_without_effect_is_restarted_until_it_stops_gaining(sample_model):
+    """Every candidate's gain is counted from the fit without effect, and L-BFGS-B on a finite-difference gradient can
+    stop short (blind bank, osv_clean_016: 3.98 nats, named as a quadratic roll damping). A fit stopped 1.5σ off the
+    truth on every axis, restarted, ends where a fit started at the planted loading ends (expected spectra of the true
+    model, no noise; the loading's prior moves both off the truth alike), and one more restart gains < 0.01 nat."""
+    from seatune.diagnosis.select import Fit
+
+    rng = np.random.default_rng(11)
+    states = trials.sea_states(rng, 6)
+    windows = trials.simulate_windows(sample_model, trials.TRUTH, None, states, trials.CHANNELS, 900.0, rng)
+    data = trials.window_set(sample_model, windows, states, ["train", "train", "holdout"] * 2, np.ones(6))
+    truth_phi = np.array([trials.TRUTH[p.name] for p in trials.PARAMETERS])
+    std = np.array([p.prior_std for p in trials.PARAMETERS])
+    diag = Diagnoser(sample_model, trials.PARAMETERS, data, truth_phi)
+    data.measured = diag.model.spectra(truth_phi)
+    off = truth_phi + 1.5 * std * np.array([1.0, -1.0, 1.0])
+    stalled = Fit("none", {}, off, diag.nll(off), float("nan"), 0, False)
+    restarted = diag._restarted(stalled)
+    assert diag._penalised(restarted) < diag._penalised(stalled) - 1.0
+    from_truth = diag._fit(None, (), None, x_from=Fit("none", {}, truth_phi, diag.nll(truth_phi), float("nan"), 0, True))
+    assert np.abs((restarted.phi - from_truth.phi) / std).max() < 0.02, (restarted.phi, from_truth.phi)
+    assert diag._penalised(restarted) < diag._penalised(from_truth) + 0.01
+    once_more = diag._fit(None, (), None, x_from=restarted)
+    assert diag._penalised(restarted) - diag._penalised(once_more) < 0.01
 
 
 def test_a_parameter_at_its_search_bound_widens_to_the_hull_limit(sample_model):
