@@ -86,9 +86,14 @@ class ModelParts:
         last = self.solved.get("last")
         if last is not None and all(a is b for a, b in zip(last[0], key, strict=True)):
             return last[1]  # a sea-side effect changed only the waves
-        xi = np.linalg.solve(self.impedance, np.swapaxes(self.force, -1, -2))  # (..., nf, 6, nb)
-        h = np.swapaxes(xi, -1, -2) @ self.transfer  # Σ_d ξ_d t_dc: a batched matmul (BLAS), not einsum
-        self.solved["last"] = (key, h)  # holds the arrays, so their ids stay theirs
+        motions = self.solved.get("motions")
+        if motions is not None and motions[0][0] is self.impedance and motions[0][1] is self.force:
+            xi_t = motions[1]  # a sensor-side effect changed only the channel maps
+        else:
+            xi_t = np.swapaxes(np.linalg.solve(self.impedance, np.swapaxes(self.force, -1, -2)), -1, -2)  # (…, nb, 6)
+            self.solved["motions"] = (key[:2], xi_t)  # holds the arrays, so their ids stay theirs
+        h = xi_t @ self.transfer  # Σ_d ξ_d t_dc: a batched matmul (BLAS), not einsum
+        self.solved["last"] = (key, h)
         return h
 
     def spectra(self) -> np.ndarray:
@@ -128,6 +133,8 @@ class SpectralModel:
 
         self.known = vessel_effects(vessel.spec.effects)  # model-side effects already in the vessel YAML
         self._recent: list = []  # (phi bytes, wave array) → ModelParts, most recent first
+        self._transfer_at: tuple | None = None  # (draft, channel maps) of the last draft
+        self._hydro_at: tuple | None = None  # ((i0, i1, w), (A, B, F)) of the last draft blend
 
     def loading(self, phi: np.ndarray):
         return self.vessel.loading(**{n: float(v) for n, v in zip(self.parameter_names, phi, strict=True)})
@@ -150,13 +157,11 @@ class SpectralModel:
         db = self.vessel.db
         lh = load(db, loading)
         i0, i1, w = (float(a[0]) if k == 2 else int(a[0]) for k, a in enumerate(lh.draft_index))
-        A = (1 - w) * self._A[i0] + w * self._A[i1]
-        B = (1 - w) * self._B[i0] + w * self._B[i1]
-        F = (1 - w) * self._F[i0] + w * self._F[i1]
+        A, B, F = self._hydro(i0, i1, w)
         om = self.omega[:, None, None]
         M, C, Bv = lh.mass_matrix[0], lh.stiffness[0], lh.extra_damping[0]
         H = -(om**2) * (M + A) - 1j * om * (B + Bv) + C
-        t = transfer_vectors(self._channels, self.omega, lh.draft, db.g)[0]
+        t = self._transfer(float(lh.draft[0]))
 
         found = []  # shared by the shallow copies `parts` hands out for this loading
 
@@ -167,12 +172,31 @@ class SpectralModel:
                 found.append((w_roll, float(M[3, 3] + np.interp(w_roll, db.omega, a44))))
             return found[0]
 
-        wave = self.data.wave.copy() if self.data is not None else np.zeros((0, om.shape[0], db.wave_direction.size))
+        wave = self.data.wave.view() if self.data is not None else np.zeros((0, om.shape[0], db.wave_direction.size))
+        wave.flags.writeable = False  # the data's own sea: sea-side effects rebind, never mutate
         parts = ModelParts(omega=self.omega, impedance=H, force=F, transfer=t, wave=wave,
                            beta=db.wave_direction, draft=float(lh.draft[0]), roll_mode=roll_mode, g=db.g, rho=db.rho)
         for effect, params in self.known:
             effect.apply(parts, params, self)
         return parts
+
+    def _hydro(self, i0: int, i1: int, w: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A(ω), B(ω), F(ω, β) blended between two database drafts, read-only (the last blend is kept: loadings
+        that leave the draft alone share it)."""
+        if self._hydro_at is None or self._hydro_at[0] != (i0, i1, w):
+            blend = [(1 - w) * x[i0] + w * x[i1] for x in (self._A, self._B, self._F)]
+            for x in blend:
+                x.flags.writeable = False
+            self._hydro_at = ((i0, i1, w), tuple(blend))
+        return self._hydro_at[1]
+
+    def _transfer(self, draft: float) -> np.ndarray:
+        """The channel maps t_j(ω) at a draft (the loading moves them only through it): (nf, 6, nc), read-only."""
+        if self._transfer_at is None or self._transfer_at[0] != draft:
+            t = transfer_vectors(self._channels, self.omega, np.array([draft]), self.vessel.db.g)[0]
+            t.flags.writeable = False  # shared by every loading at this draft; effects rebind, never mutate
+            self._transfer_at = (draft, t)
+        return self._transfer_at[1]
 
     def spectra(self, phi: np.ndarray, effect=None, params: dict | None = None) -> np.ndarray:
         """Expected Welch spectra E[Ŝ_j] at the bins: the model convolved with the segment's spectral window,
