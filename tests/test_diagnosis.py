@@ -307,10 +307,13 @@ def test_the_fit_without_effect_is_restarted_until_it_stops_gaining(sample_model
     diag = Diagnoser(sample_model, trials.PARAMETERS, data, truth_phi)
     data.measured = diag.model.spectra(truth_phi)
     off = truth_phi + 1.5 * std * np.array([1.0, -1.0, 1.0])
-    stalled = Fit("none", {}, off, diag.nll(off), float("nan"), 0, False)
+    def at(phi):
+        return Fit("none", {}, phi, diag.nll(phi), float("nan"), 0, False)
+
+    stalled = at(off)
     restarted = diag._restarted(stalled)
     assert diag._penalised(restarted) < diag._penalised(stalled) - 1.0
-    from_truth = diag._fit(None, (), None, x_from=Fit("none", {}, truth_phi, diag.nll(truth_phi), float("nan"), 0, True))
+    from_truth = diag._fit(None, (), None, x_from=at(truth_phi))
     assert np.abs((restarted.phi - from_truth.phi) / std).max() < 0.02, (restarted.phi, from_truth.phi)
     assert diag._penalised(restarted) < diag._penalised(from_truth) + 0.01
     once_more = diag._fit(None, (), None, x_from=restarted)
