@@ -123,25 +123,43 @@ def test_tuned_model_path_reproduces_the_prior_model_of_identify(reported):
 
 
 def test_up_to_date_report_is_skipped_and_diagnosis_joins_when_present(reported, tmp_path):
-    from seatune.io.parquet import write_table
+    from seatune.io.parquet import column_units, write_table
+    from seatune.io.rundir import recorded_fingerprint
 
     out, path, _ = reported
     res = run_cli("report", path)
     assert res.returncode == 0 and res.stdout.strip().splitlines()[-1].startswith("report: up to date (skipped)")
-    shutil.copytree(out, tmp_path / "run")  # a copy: the module's run stays without diagnosis
+    shutil.copytree(out, tmp_path / "run")  # a copy: the module's run keeps its own diagnosis
     data = yaml.safe_load(Path(path).read_text())
     data["run_dir"] = str(tmp_path / "run")
     copy = tmp_path / "run.yaml"
     copy.write_text(yaml.safe_dump(data))
-    diag = pd.DataFrame({"effect": ["imu_misalignment", "quadratic_roll_damping"], "evidence": [12.5, -1.0],
-                         "parameters": [[0.4, -0.2], [0.0]], "gap_before": [0.21, 0.21], "gap_after": [0.06, 0.2]})
-    write_table(diag, tmp_path / "run" / "diagnosis.parquet",
-                {"effect": "", "evidence": "", "parameters": "deg", "gap_before": "", "gap_after": ""})
+    # the stage's own table with a named effect written in (under the stage's fingerprint, so diagnose stays up
+    # to date and the report, its input changed, is made again)
+    diag_path = tmp_path / "run" / "diagnosis.parquet"
+    diag, fp = pd.read_parquet(diag_path), recorded_fingerprint(diag_path)
+    assert "imu_misalignment" in set(diag["effect"]) and not diag["selected"].any()
+    units = column_units(diag_path)
+    pick = diag.index[diag["effect"] == "imu_misalignment"][0]
+    diag.loc[pick, ["selected", "eligible", "gain_holdout"]] = [True, True, 12.5]
+    write_table(diag, diag_path, units, {"fingerprint": fp})
     res = run_cli("report", copy)
     assert res.returncode == 0, res.stderr
-    assert "tune: up to date" in res.stdout and "diagnosis included" in res.stdout.splitlines()[-1]
+    assert "diagnose: up to date" in res.stdout and "diagnosis included" in res.stdout.splitlines()[-1]
     page = (tmp_path / "run" / "report.html").read_text(encoding="utf-8")
-    assert '<section id="diagnosis">' in page and "imu_misalignment" in page and "[deg]" in page
+    section = page[page.index('<section id="diagnosis">'):]
+    section = section[:section.index("</section>")]
+    assert "<b>imu_misalignment</b>" in section and "held-out gain 12.5 nats" in section
+
+    # a table of another program (or an older seatune) under that fingerprint: one line naming it, exit 2, and the
+    # report already written is kept
+    before = (tmp_path / "run" / "report.html").read_bytes()
+    write_table(pd.DataFrame({"effect": ["imu_misalignment"], "evidence": [12.5]}), diag_path,
+                {"effect": "", "evidence": ""}, {"fingerprint": fp})
+    res = run_cli("report", copy)
+    assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1, res.stderr
+    assert str(diag_path) in res.stderr and "no fitted, gain_train" in res.stderr
+    assert (tmp_path / "run" / "report.html").read_bytes() == before
 
 
 def test_prediction_joins_the_report_when_present(reported, tmp_path):

@@ -150,7 +150,7 @@ def report_stage(run, vessel, echo=print, force: bool = False, not_run: dict[str
     from seatune.io.parquet import column_units, table_metadata, write_table
     from seatune.io.rundir import fingerprint, is_fresh, recorded_fingerprint
     from seatune.physics.modes import coupled_modes
-    from seatune.report.build import build_report, mode_shape_words
+    from seatune.report.build import DIAGNOSIS_COLUMNS, build_report, mode_shape_words
     from seatune.report.inputs import ReportInputs
     from seatune.report.summary import key_figures
 
@@ -178,6 +178,11 @@ def report_stage(run, vessel, echo=print, force: bool = False, not_run: dict[str
     windows, raos = pd.read_parquet(run.artefact("windows.parquet")), stage_table("raos.parquet", RAO_UNITS)
     history, diag_path = optional("tuning_history.parquet"), run.artefact("diagnosis.parquet")
     diagnosed = "diagnosis.parquet" not in left_out and diag_path.exists()
+    diagnosis = pd.read_parquet(diag_path) if diagnosed else None
+    missing = [c for c in DIAGNOSIS_COLUMNS if diagnosis is not None and c not in diagnosis]
+    if missing:
+        raise UserError(str(diag_path), "columns", f"not a table of `seatune diagnose`: no {', '.join(missing)} "
+                                                   "(make it again: `seatune diagnose RUN.yaml --force diagnose`)")
     sea_states = None if "sea_states.parquet" in left_out else read_sea_states(run)
     dt = motions.period_s()
     step = max(int(round(1.0 / dt)), 1) if dt else 1  # the track at ~1 Hz
@@ -198,7 +203,7 @@ def report_stage(run, vessel, echo=print, force: bool = False, not_run: dict[str
         validation=optional("validation.parquet"), prediction=optional("prediction.parquet"),
         prediction_units=column_units(run.artefact("prediction.parquet")) if run.artefact("prediction.parquet").exists()
         else {},
-        diagnosis=pd.read_parquet(diag_path) if diagnosed else None,
+        diagnosis=diagnosis,
         diagnosis_units=column_units(diag_path) if diagnosed else {},
         diagnosis_residuals=optional("diagnosis_residuals.parquet"),
         sea_refit_hs=sea_refit_hs(sea_states, optional("sea_states_diagnosed.parquet")),

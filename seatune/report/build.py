@@ -513,6 +513,12 @@ def _parameters(r) -> str:
                      + (f" {units[k].replace('^2', '²')}" if units.get(k) else "") for k, v in fitted.items()) or "–"
 
 
+#: the diagnosis.parquet columns the section reads (those added by issue 17 are filled in for an older table)
+DIAGNOSIS_COLUMNS = ("effect", "fitted", "gain_train", "gain_holdout", "bic_penalty", "at_bound", "eligible",
+                     "selected", "bands_before", "bands_after", "gap_before_holdout", "gap_after_holdout",
+                     "sigma_error_before_holdout", "sigma_error_after_holdout")
+
+
 def diagnosis_section(inp: ReportInputs) -> str | None:
     """seatune diagnose: the verdict, the evidence per candidate, before / after gaps and the residual map."""
     d = inp.diagnosis
