@@ -307,6 +307,7 @@ def test_the_fit_without_effect_is_restarted_until_it_stops_gaining(sample_model
     diag = Diagnoser(sample_model, trials.PARAMETERS, data, truth_phi)
     data.measured = diag.model.spectra(truth_phi)
     off = truth_phi + 1.5 * std * np.array([1.0, -1.0, 1.0])
+
     def at(phi):
         return Fit("none", {}, phi, diag.nll(phi), float("nan"), 0, False)
 

@@ -138,10 +138,10 @@ def test_up_to_date_report_is_skipped_and_diagnosis_joins_when_present(reported,
     # to date and the report, its input changed, is made again)
     diag_path = tmp_path / "run" / "diagnosis.parquet"
     diag, fp = pd.read_parquet(diag_path), recorded_fingerprint(diag_path)
-    assert "imu_misalignment" in set(diag["effect"]) and not diag["selected"].any()
     units = column_units(diag_path)
     pick = diag.index[diag["effect"] == "imu_misalignment"][0]
-    diag.loc[pick, ["selected", "eligible", "gain_holdout"]] = [True, True, 12.5]
+    diag["selected"] = diag.index == pick
+    diag.loc[pick, ["eligible", "gain_holdout"]] = [True, 12.5]
     write_table(diag, diag_path, units, {"fingerprint": fp})
     res = run_cli("report", copy)
     assert res.returncode == 0, res.stderr
