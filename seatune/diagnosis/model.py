@@ -133,8 +133,7 @@ class SpectralModel:
 
         self.known = vessel_effects(vessel.spec.effects)  # model-side effects already in the vessel YAML
         self._recent: list = []  # (phi bytes, wave array) → ModelParts, most recent first
-        self._transfer_at: tuple | None = None  # (draft, channel maps) of the last draft
-        self._hydro_at: tuple | None = None  # ((i0, i1, w), (A, B, F)) of the last draft blend
+        self._draft_at: tuple | None = None  # (draft, (A, B, F, channel maps)) of the last draft
 
     def loading(self, phi: np.ndarray):
         return self.vessel.loading(**{n: float(v) for n, v in zip(self.parameter_names, phi, strict=True)})
@@ -157,11 +156,10 @@ class SpectralModel:
         db = self.vessel.db
         lh = load(db, loading)
         i0, i1, w = (float(a[0]) if k == 2 else int(a[0]) for k, a in enumerate(lh.draft_index))
-        A, B, F = self._hydro(i0, i1, w)
+        A, B, F, t = self._at_draft(float(lh.draft[0]), i0, i1, w)
         om = self.omega[:, None, None]
         M, C, Bv = lh.mass_matrix[0], lh.stiffness[0], lh.extra_damping[0]
         H = -(om**2) * (M + A) - 1j * om * (B + Bv) + C
-        t = self._transfer(float(lh.draft[0]))
 
         found = []  # shared by the shallow copies `parts` hands out for this loading
 
@@ -180,23 +178,17 @@ class SpectralModel:
             effect.apply(parts, params, self)
         return parts
 
-    def _hydro(self, i0: int, i1: int, w: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """A(ω), B(ω), F(ω, β) blended between two database drafts, read-only (the last blend is kept: loadings
-        that leave the draft alone share it)."""
-        if self._hydro_at is None or self._hydro_at[0] != (i0, i1, w):
-            blend = [(1 - w) * x[i0] + w * x[i1] for x in (self._A, self._B, self._F)]
-            for x in blend:
+    def _at_draft(self, draft: float, i0: int, i1: int, w: float) -> tuple[np.ndarray, ...]:
+        """A(ω), B(ω), F(ω, β) blended between the database drafts i0, i1 and the channel maps t_j(ω) at `draft`,
+        read-only; the last draft's are kept (loadings that leave the draft alone share them; effects rebind, never
+        mutate)."""
+        if self._draft_at is None or self._draft_at[0] != draft:
+            arrays = [(1 - w) * x[i0] + w * x[i1] for x in (self._A, self._B, self._F)]
+            arrays.append(transfer_vectors(self._channels, self.omega, np.array([draft]), self.vessel.db.g)[0])
+            for x in arrays:
                 x.flags.writeable = False
-            self._hydro_at = ((i0, i1, w), tuple(blend))
-        return self._hydro_at[1]
-
-    def _transfer(self, draft: float) -> np.ndarray:
-        """The channel maps t_j(ω) at a draft (the loading moves them only through it): (nf, 6, nc), read-only."""
-        if self._transfer_at is None or self._transfer_at[0] != draft:
-            t = transfer_vectors(self._channels, self.omega, np.array([draft]), self.vessel.db.g)[0]
-            t.flags.writeable = False  # shared by every loading at this draft; effects rebind, never mutate
-            self._transfer_at = (draft, t)
-        return self._transfer_at[1]
+            self._draft_at = (draft, tuple(arrays))
+        return self._draft_at[1]
 
     def spectra(self, phi: np.ndarray, effect=None, params: dict | None = None) -> np.ndarray:
         """Expected Welch spectra E[Ŝ_j] at the bins: the model convolved with the segment's spectral window,

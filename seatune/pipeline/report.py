@@ -179,7 +179,7 @@ def report_stage(run, vessel, echo=print, force: bool = False, not_run: dict[str
     history, diag_path = optional("tuning_history.parquet"), run.artefact("diagnosis.parquet")
     diagnosed = "diagnosis.parquet" not in left_out and diag_path.exists()
     diagnosis = pd.read_parquet(diag_path) if diagnosed else None
-    missing = [c for c in DIAGNOSIS_COLUMNS if diagnosis is not None and c not in diagnosis]
+    missing = [c for c in DIAGNOSIS_COLUMNS if c not in diagnosis] if diagnosis is not None else []
     if missing:
         raise UserError(str(diag_path), "columns", f"not a table of `seatune diagnose`: no {', '.join(missing)} "
                                                    "(make it again: `seatune diagnose RUN.yaml --force diagnose`)")
