@@ -141,6 +141,8 @@ class SeaSettings(Strict):
     omega_min: PositiveFloat = 0.25  # fitted band [rad/s]
     omega_max: PositiveFloat = 2.0
     iterations: Annotated[int, Field(ge=1, le=5)] = 1  # > 1: sea and vessel alternate (sea → tune → sea …)
+    # rounds of the sea refitted through the r55 identify reads from the pitch mode, then identify again (0: off)
+    mode_rounds: Annotated[int, Field(ge=0, le=5)] = 2
     roll_free: bool = True  # also fit each window's sea without the roll channels, for identify's roll ω_n
     # fit each window again with the hindcast's error the record's other windows found (partial pooling)
     pool_windows: bool = True

@@ -195,6 +195,10 @@ def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = (), progress=N
                 raise UserError(str(run.path), "windows", f"no accepted window to {last} on: {empty}")
             if empty:
                 why, cause = f"no accepted window: {empty}", "no accepted window"
+        if stage == "identify" and run.spec.sea.estimate and run.spec.sea.mode_rounds and not summary.get("skipped"):
+            from seatune.pipeline.sea import alternate_modes
+
+            alternate_modes(run, model, stages, echo=click.echo)
         if stage == "tune" and run.spec.sea.estimate and run.spec.sea.iterations > 1 and not summary.get("skipped"):
             from seatune.pipeline.sea import alternate
 
