@@ -55,6 +55,16 @@ def window_set(vessel, windows, states, roles, hs_error, tp_error=None, beta_err
                      np.zeros(len(hs)))
 
 
+def noise_free_set(vessel, seed: int, n_windows: int = 6) -> tuple[WindowSet, np.ndarray]:
+    """Windows of `seed`'s seas (two trained, one held out, in turn) and the true loading vector; the caller sets
+    `measured` to a model's expected spectra (no sampling noise)."""
+    rng = np.random.default_rng(seed)
+    states = sea_states(rng, n_windows)
+    windows = simulate_windows(vessel, TRUTH, None, states, CHANNELS, 900.0, rng)
+    data = window_set(vessel, windows, states, ["train", "train", "holdout"] * (n_windows // 3), np.ones(n_windows))
+    return data, np.array([TRUTH[p.name] for p in PARAMETERS])
+
+
 def trial(vessel, effect: str | tuple[str, ...] | None, seed: int, n_windows: int = 9, duration_s: float = 1800.0,
           hs_rel_std: float = 0.05, tp_std_s: float = 0.0, dir_std_deg: float = 0.0, null=None, effects=None,
           max_named: int = 1, swell: dict | None = None):

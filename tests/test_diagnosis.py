@@ -270,11 +270,7 @@ def test_refine_refits_a_named_effect_in_another_sea_from_where_it_stood(sample_
     model with the effect, no noise)."""
     import copy
 
-    rng = np.random.default_rng(5)
-    states = trials.sea_states(rng, 6)
-    windows = trials.simulate_windows(sample_model, trials.TRUTH, None, states, trials.CHANNELS, 900.0, rng)
-    right = trials.window_set(sample_model, windows, states, ["train", "train", "holdout"] * 2, np.ones(6))
-    truth_phi = np.array([trials.TRUTH[p.name] for p in trials.PARAMETERS])
+    right, truth_phi = trials.noise_free_set(sample_model, 5)
     effect, planted = EFFECT["imu_lever_arm"], {"dx": 6.0, "dy": -3.0, "dz": 4.0}
     right.measured = Diagnoser(sample_model, trials.PARAMETERS, right, truth_phi).model.spectra(truth_phi, effect,
                                                                                               planted)
@@ -298,11 +294,7 @@ def test_the_fit_without_effect_is_restarted_until_it_stops_gaining(sample_model
     model, no noise; the loading's prior moves both off the truth alike), and one more restart gains < 0.01 nat."""
     from seatune.diagnosis.select import Fit
 
-    rng = np.random.default_rng(11)
-    states = trials.sea_states(rng, 6)
-    windows = trials.simulate_windows(sample_model, trials.TRUTH, None, states, trials.CHANNELS, 900.0, rng)
-    data = trials.window_set(sample_model, windows, states, ["train", "train", "holdout"] * 2, np.ones(6))
-    truth_phi = np.array([trials.TRUTH[p.name] for p in trials.PARAMETERS])
+    data, truth_phi = trials.noise_free_set(sample_model, 11)
     std = np.array([p.prior_std for p in trials.PARAMETERS])
     diag = Diagnoser(sample_model, trials.PARAMETERS, data, truth_phi)
     data.measured = diag.model.spectra(truth_phi)
@@ -330,11 +322,7 @@ def test_a_parameter_at_its_search_bound_widens_to_the_hull_limit(sample_model):
     effect = Moonpool(*trials.MOONPOOL_AT, waterplane=a_wp)
     area = next(q for q in effect.parameters if q.name == "area")
     assert area.upper == pytest.approx(0.08 * a_wp) and area.widenable
-    rng = np.random.default_rng(3)
-    states = trials.sea_states(rng, 6)
-    windows = trials.simulate_windows(sample_model, trials.TRUTH, None, states, trials.CHANNELS, 900.0, rng)
-    data = trials.window_set(sample_model, windows, states, ["train", "train", "holdout"] * 2, np.ones(6))
-    truth_phi = np.array([trials.TRUTH[p.name] for p in trials.PARAMETERS])
+    data, truth_phi = trials.noise_free_set(sample_model, 3)
     planted = {"omega_p": 1.1, "zeta_p": 0.08, "area": 0.12 * a_wp}
     diag = Diagnoser(sample_model, trials.PARAMETERS, data, truth_phi)
     data.measured = diag.model.spectra(truth_phi, effect, planted)
@@ -351,11 +339,7 @@ def test_a_missing_swell_is_found_from_any_side(sample_model):
     local optimum 180° off), so it ends at the planted swell from whichever compass quarter it comes."""
     from seatune.diagnosis.effects import MissingSwell
 
-    rng = np.random.default_rng(5)
-    states = trials.sea_states(rng, 6)
-    windows = trials.simulate_windows(sample_model, trials.TRUTH, None, states, trials.CHANNELS, 900.0, rng)
-    data = trials.window_set(sample_model, windows, states, ["train", "train", "holdout"] * 2, np.ones(6))
-    truth_phi = np.array([trials.TRUTH[p.name] for p in trials.PARAMETERS])
+    data, truth_phi = trials.noise_free_set(sample_model, 5)
     model = Diagnoser(sample_model, trials.PARAMETERS, data, truth_phi).model
     base_measured = model.spectra(truth_phi)
     for direction in (60.0, 150.0, 290.0):
