@@ -440,25 +440,36 @@ PITCH_DERIVED = "r55 [m]"  # identify's derived parameter of the pitch mode (pip
 
 
 def mode_parameters(run, vessel) -> list:
-    """r55 as identify last read it from the pitch mode (the loading at which the coupled model's pitch root is
-    the measured ω_n), as a Parameter for the sea's design: [] when identify has not run, read no pitch mode, or
-    r55 is known on board. Its std is capped at the prior's: a wide interval must not fan the design out."""
+    """r55 as identify last read it from the pitch mode, as a Parameter for the sea's design (`pitch_r55`), or []."""
+    found, _ = pitch_r55(run, vessel)
+    return [found] if found is not None else []
+
+
+def pitch_r55(run, vessel):
+    """(Parameter, "") of r55 as identify last read it from the pitch mode (the loading at which the coupled model's
+    pitch root is the measured ω_n), its std capped at the prior's (a wide interval must not fan the sea's design
+    out); else (None, why). A reading outside the vessel YAML's r55 bounds is not taken: something the model lacks
+    moved the pitch resonance (blind bank: an IMU lever arm read as r55 30.1 m against 25.0 m true)."""
     from seatune.tuning.interface import Parameter
 
     path = run.artefact("natural_frequencies.parquet")
-    if "r55" in run.spec.identify.known or not path.exists():
-        return []
+    if "r55" in run.spec.identify.known:
+        return None, "r55 is known"
+    if not path.exists():
+        return None, "identify has not run"
     nat = pd.read_parquet(path)
     row = nat[(nat["window_id"] == "all") & (nat["derived"] == PITCH_DERIVED)]
     if row.empty or not np.isfinite(row["derived_value"].iloc[0]):
-        return []
+        return None, "identify read no r55 from the pitch mode"
     base = float(vessel.base_loading.r55[0])
     prior = vessel.spec.priors.get("r55")
     lo, hi = prior.bounds if prior is not None and prior.bounds is not None else (0.3 * base, 3.0 * base)
+    mean = float(row["derived_value"].iloc[0])
+    if not lo < mean < hi:
+        return None, (f"identify reads r55 {mean:.2f} m, outside the vessel's bounds [{lo:g}, {hi:g}] m: the pitch "
+                      "resonance moved by something other than r55")
     cap = float(prior.std) if prior is not None else 0.1 * base
-    width = 1e-3 * (hi - lo)  # Parameter wants the mean strictly inside its bounds
-    mean = float(np.clip(row["derived_value"].iloc[0], lo + width, hi - width))
-    return [Parameter("r55", mean, float(np.clip(row["derived_std"].iloc[0], 1e-6, cap)), float(lo), float(hi))]
+    return Parameter("r55", mean, float(np.clip(row["derived_std"].iloc[0], 1e-6, cap)), float(lo), float(hi)), ""
 
 
 def with_modes(parameters: list, modes: list) -> list:
@@ -480,17 +491,18 @@ def alternate_modes(run, vessel, stages, echo=print) -> list[dict]:
     assumed = next((p.prior_mean for p in tuned if p.name == "r55"), float(vessel.base_loading.r55[0]))
     rounds, omega = [], _pitch_omega(run)
     for k in range(1, run.spec.sea.mode_rounds + 1):
-        modes = mode_parameters(run, vessel)
-        if not modes:
+        read, why = pitch_r55(run, vessel)
+        if read is None:
+            if k > 1 or why != "identify read no r55 from the pitch mode":
+                echo(f"sea ↔ pitch mode: {'no refit' if k == 1 else f'stopped after {k - 1} round(s)'}: {why}")
             break
-        read = modes[0]
         if abs(read.prior_mean - assumed) < 0.5 * read.prior_std:
             echo(f"sea ↔ pitch mode: {'settled after ' + str(k - 1) + ' round(s)' if k > 1 else 'no refit'}: identify "
                  f"reads r55 {read.prior_mean:.2f} ± {read.prior_std:.2f} m, within half its std of the sea's "
                  f"{assumed:.2f} m")
             break
         start = time.perf_counter()
-        sea_stage(run, vessel, echo=echo, force=True, parameters=with_modes(tuned, modes))
+        sea_stage(run, vessel, echo=echo, force=True, parameters=with_modes(tuned, [read]))
         stages["identify"](True)
         after = _pitch_omega(run)
         rounds.append({"round": k, "r55_assumed": read.prior_mean, "r55_before": assumed,
