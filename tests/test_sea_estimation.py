@@ -324,6 +324,31 @@ def test_the_pitch_mode_and_the_sea_alternate_to_the_truth(tmp_path):
     assert steps[1] < steps[0]
 
 
+def test_the_pitch_mode_feeds_back_only_an_r55_the_vessel_allows(finished_sample, tmp_path):
+    """The r55 identify reads from the pitch mode goes back into the sea's design with its std capped at the
+    prior's; one outside the vessel YAML's bounds (20–28 m) is not taken, with the reason."""
+    from seatune.io.run_yaml import Run
+    from seatune.pipeline.sea import PITCH_DERIVED, pitch_r55
+    from seatune.pipeline.vessel import open_run_vessel
+    from tests.conftest import copy_of_sample
+
+    assert "sea ↔ pitch mode" in finished_sample[2]  # the sample run says what the alternation did
+    run = Run(copy_of_sample(finished_sample, tmp_path))
+    vessel = open_run_vessel(run)
+    path = run.artefact("natural_frequencies.parquet")
+    nat = pd.read_parquet(path)
+    row = (nat["window_id"] == "all") & (nat["derived"] == PITCH_DERIVED)
+    assert row.sum() == 1
+    for value, std, expected in [(25.0, 4.0, (25.0, 1.5)), (23.0, 0.4, (23.0, 0.4)), (30.1, 0.5, None)]:
+        nat.loc[row, ["derived_value", "derived_std"]] = [value, std]
+        nat.to_parquet(path)
+        found, why = pitch_r55(run, vessel)
+        if expected is None:
+            assert found is None and "outside the vessel's bounds [20, 28] m" in why
+        else:
+            assert (found.prior_mean, found.prior_std) == pytest.approx(expected) and why == ""
+
+
 def test_the_roll_free_sea_leaves_the_roll_channels_out(missing_swell_trial):
     """sea.roll_free (default): the window's sea fitted again without roll, roll rate and the transverse specific
     force, for identify's roll mode; the same windows, and the same sea within the fits' spread."""
