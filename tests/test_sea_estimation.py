@@ -326,15 +326,21 @@ def test_the_pitch_mode_and_the_sea_alternate_to_the_truth(tmp_path):
 
 def test_the_pitch_mode_feeds_back_only_an_r55_the_vessel_allows(finished_sample, tmp_path):
     """The r55 identify reads from the pitch mode goes back into the sea's design with its std capped at the
-    prior's; one outside the vessel YAML's bounds (20–28 m) is not taken, with the reason."""
+    prior's; one outside the vessel YAML's bounds (20–28 m) is not taken, with the reason. sea_states.parquet
+    records the r55 it was fitted through, so a killed round resumes from it."""
+    import re
+
     from seatune.io.run_yaml import Run
-    from seatune.pipeline.sea import PITCH_DERIVED, pitch_r55
+    from seatune.pipeline.sea import PITCH_DERIVED, pitch_r55, sea_design
     from seatune.pipeline.vessel import open_run_vessel
     from tests.conftest import copy_of_sample
 
     assert "sea ↔ pitch mode" in finished_sample[2]  # the sample run says what the alternation did
     run = Run(copy_of_sample(finished_sample, tmp_path))
     vessel = open_run_vessel(run)
+    refits = re.findall(r"sea refitted through r55 ([\d.]+) m", finished_sample[2])
+    # the sea's table records the r55 its RAOs had (the prior's when the sample needed no round)
+    assert sea_design(run).get("r55", [24.0])[0] == pytest.approx(float(refits[-1]) if refits else 24.0, abs=0.005)
     path = run.artefact("natural_frequencies.parquet")
     nat = pd.read_parquet(path)
     row = (nat["window_id"] == "all") & (nat["derived"] == PITCH_DERIVED)

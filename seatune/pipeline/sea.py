@@ -316,7 +316,8 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
                         f"{', '.join(unknown)}")
     if not channels:
         raise UserError(str(run.path), "sea.channels", "no angle or vertical channel among the motions")
-    design = design_loadings(vessel, parameters if parameters is not None else tuning_parameters(run, vessel))
+    believed = parameters if parameters is not None else tuning_parameters(run, vessel)
+    design = design_loadings(vessel, believed)
     fs = run.spec.ingest.rate_hz
     keep = [k for k, c in enumerate(channels) if not _shows_roll(vessel.channel(c))]
     roll_free = settings.roll_free and main and 2 <= len(keep) < len(channels)
@@ -363,7 +364,9 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
     table = pd.DataFrame(rows, columns=list(SEA_UNITS))
     if settings.roll_free and main:  # empty when too few channels remain without roll: identify takes the full fit
         write_table(pd.DataFrame(rows_roll, columns=list(SEA_UNITS)), out_roll, SEA_UNITS, {"fingerprint": fp})
-    write_table(table, out, SEA_UNITS, {"fingerprint": fp})
+    # the loading belief the RAOs came from: the pitch alternation compares identify's r55 with it
+    meta = {"fingerprint": fp, "design": {p.name: [p.prior_mean, p.prior_std] for p in believed}}
+    write_table(table, out, SEA_UNITS, meta)
     systems = system_table(table)
     added = systems[~systems["in_hindcast"]] if len(systems) else systems
     ratio = (
@@ -488,7 +491,7 @@ def alternate_modes(run, vessel, stages, echo=print) -> list[dict]:
     from seatune.pipeline.tune import tuning_parameters
 
     tuned = tuning_parameters(run, vessel)
-    assumed = next((p.prior_mean for p in tuned if p.name == "r55"), float(vessel.base_loading.r55[0]))
+    assumed = sea_design(run).get("r55", [float(vessel.base_loading.r55[0])])[0]  # a killed round's too
     rounds, omega = [], _pitch_omega(run)
     for k in range(1, run.spec.sea.mode_rounds + 1):
         read, why = pitch_r55(run, vessel)
@@ -515,6 +518,17 @@ def alternate_modes(run, vessel, stages, echo=print) -> list[dict]:
             echo(f"sea ↔ pitch mode: sea.mode_rounds ({len(rounds)}) reached; the last round moved r55 by "
                  f"{abs(rounds[-1]['r55_assumed'] - rounds[-1]['r55_before']):.2f} m")
     return rounds
+
+
+def sea_design(run) -> dict:
+    """{parameter: [mean, std]} of the loading belief sea_states.parquet was fitted through ({} when it predates
+    this record or is missing)."""
+    from seatune.io.parquet import table_metadata
+
+    try:
+        return table_metadata(run.artefact("sea_states.parquet")).get("design", {})
+    except (OSError, KeyError, ValueError):
+        return {}
 
 
 def _pitch_omega(run) -> float:
