@@ -532,10 +532,12 @@ def sea_design(run) -> dict:
 
 
 def _pitch_omega(run) -> float:
-    nat = pd.read_parquet(run.artefact("natural_frequencies.parquet"))
-    row = nat[(nat["window_id"] == "all") & (nat["dof"] == "Pitch") & nat["derived"].isna()
-              & (nat["method"] == "admittance_peak_sdof")]
-    return float(row["omega_n"].iloc[0]) if len(row) else float("nan")
+    """identify's measured pitch ω_n (without the loading prior, which the alternation does not move)."""
+    from seatune.identification.natural_frequency import primary_natural_frequencies
+
+    modes = primary_natural_frequencies(pd.read_parquet(run.artefact("natural_frequencies.parquet")),
+                                        measured_only=True)
+    return float(modes.loc["Pitch", "omega_n"]) if "Pitch" in modes.index else float("nan")
 
 
 def alternate(run, vessel, stages, echo=print) -> list[dict]:
