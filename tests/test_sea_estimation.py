@@ -399,10 +399,13 @@ def test_identify_reads_roll_against_its_own_sea():
     assert any(r["dof"] == "Roll" and np.isfinite(r["omega_n"]) for r in rows if r["window_id"] == "all")
 
 
-def test_the_choice_of_sea_widens_the_combined_interval():
-    """Two defensible seas of a window (here the true one and one with its energy tilted toward high
-    frequencies): the combined ω_n keeps the first sea's value, and its interval grows by 1.96 · |Δω| / √2 in
-    quadrature, Δω being the move to the other sea's fit made on its own (none where that sea identifies nothing)."""
+@pytest.mark.parametrize("log_odds", [None, np.log(1 / 3), -60.0])
+def test_the_choice_of_sea_widens_the_combined_interval(log_odds):
+    """Two seas of a window (here the true one and one with its energy tilted toward high frequencies): the combined
+    ω_n keeps the first sea's value, and its interval grows by 1.96 · |Δω| · √p in quadrature, Δω being the move to
+    the other sea's fit made on its own (none where that sea identifies nothing) and p that sea's probability: ½
+    when the data cannot choose, 1/(1 + e^−L) when the window carries its log-odds L (the hindcast's against the
+    estimate fitted to the motions; on the bank L is −3 to −5400 per window): p = ¼ halves |Δω|, L = −60 removes it."""
     import tests.test_mode_estimator as estimator
     from seatune.io.run_yaml import IdentifySettings
     from seatune.physics.modes import natural_frequencies
@@ -418,6 +421,9 @@ def test_the_choice_of_sea_widens_the_combined_interval():
     seas = {"one": {k: window[k] for k in ("wave", "dirs", "s_wave")},
             "other": {"wave": tilted, "dirs": window["dirs"], "s_wave": ident.omnidirectional(tilted, window["dirs"])}}
     window["seas"], window["sea_name"] = seas, "one"  # "one" is the sea the modes are read against
+    if log_odds is not None:
+        window["sea_log_odds"] = {"other": log_odds}
+    p = 0.5 if log_odds is None else 1 / (1 + np.exp(-log_odds))
 
     def combined(w):
         rows = ident.natural_frequency_rows(model, [w], prior, IdentifySettings(), model.base_loading)
@@ -434,8 +440,8 @@ def test_the_choice_of_sea_widens_the_combined_interval():
         delta = delta if np.isfinite(delta) else 0.0  # a sea in which the mode is not identified moves nothing
         moved = max(moved, delta)
         assert r["omega_n"] == first[dof]["omega_n"]
-        assert r["sea_std"] == pytest.approx(delta / np.sqrt(2), rel=1e-9, abs=1e-12)
-        half = np.hypot(0.5 * (first[dof]["ci_high"] - first[dof]["ci_low"]), 1.96 * delta / np.sqrt(2))
+        assert r["sea_std"] == pytest.approx(delta * np.sqrt(p), rel=1e-9, abs=1e-12)
+        half = np.hypot(0.5 * (first[dof]["ci_high"] - first[dof]["ci_low"]), 1.96 * delta * np.sqrt(p))
         assert r["ci_high"] - r["ci_low"] == pytest.approx(2 * half, rel=1e-9)
     assert moved > 1e-3  # the tilt does move a mode: the test is not vacuous
 

@@ -437,7 +437,8 @@ def sea_views(per_window: list[dict], prior_omega: dict[str, float]) -> list[tup
         return None
     out = []
     for name in names:
-        view = [w | w["seas"][name] | {"sea_by_mode": {}} for w in per_window if name in w.get("seas", {})]
+        view = [w | w["seas"][name] | {"sea_by_mode": {}, "sea_name": name}
+                for w in per_window if name in w.get("seas", {})]
         redo = {dof: omega for dof, omega in prior_omega.items()  # a mode already fitted in this sea moves nowhere
                 if len(view) < len(per_window) or any(_sea_name(w, dof) != name for w in per_window)}
         if redo:
@@ -448,25 +449,37 @@ def sea_views(per_window: list[dict], prior_omega: dict[str, float]) -> list[tup
 def with_sea_spread(rows: list[dict], model, per_window: list[dict], prior_omega: dict[str, float], settings,
                     loading, redone: list[list[dict]] | None = None) -> list[dict]:
     """`rows` with each combined admittance ω_n's interval widened by how far it moves when every window takes
-    another of its defensible seas (`sea_views`): `sea_std` = max |Δω| / √2 (the spread of two equally likely
-    draws), added in quadrature at 1.96σ. Which sea is right the data cannot say, and the choice is shared by every
-    window, so it does not average down. `redone`: the rows of each view, if already fitted."""
+    another of its defensible seas (`sea_views`): `sea_std` = max over seas of |Δω| · √p, p the other sea's
+    probability against the one read (`view_probability`): the rms error of the value read when the other sea is
+    the true one with probability p; |Δω| / √2 for two equally likely seas. Added in quadrature at 1.96σ. The
+    choice is shared by every window, so it does not average down.
+    `redone`: the rows of each view, if already fitted."""
     views = sea_views(per_window, prior_omega)
     if views is None:
         return rows
     if redone is None:
         redone = natural_frequency_rows_many(model, [(view, redo, loading, None) for view, redo in views], settings)
-    moved: dict[str, list[float]] = {}
-    for r in (r for rows_of in redone for r in rows_of):
-        if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof" and np.isfinite(r["omega_n"]):
-            moved.setdefault(r["dof"], []).append(r["omega_n"])
+    moved: dict[str, list[tuple[float, float]]] = {}
+    for (view, _), rows_of in zip(views, redone, strict=True):
+        p = view_probability(view)
+        for r in rows_of:
+            if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof" and np.isfinite(r["omega_n"]):
+                moved.setdefault(r["dof"], []).append((r["omega_n"], np.sqrt(p)))
     out = []
     for r in rows:
         if r["window_id"] == "all" and r["method"] == "admittance_peak_sdof" and np.isfinite(r["omega_n"]):
-            sea_std = max(abs(v - r["omega_n"]) for v in moved.get(r["dof"], [r["omega_n"]])) / np.sqrt(2.0)
+            sea_std = max((abs(v - r["omega_n"]) * f for v, f in moved.get(r["dof"], [])), default=0.0)
             r = _widened(r, "sea_std", sea_std)
         out.append(r)
     return out
+
+
+def view_probability(view: list[dict]) -> float:
+    """The probability of a view's sea against the sea its windows were read in: ½ (the data cannot choose, e.g. the
+    estimates with and without the roll channels), unless the windows carry the log-odds of that sea
+    (`sea_log_odds`, the hindcast's against the estimate fitted to the same cross-spectra), summed over them."""
+    log_odds = sum(w.get("sea_log_odds", {}).get(w["sea_name"], 0.0) for w in view)
+    return float(1.0 / (1.0 + np.exp(-np.clip(log_odds, -700.0, 700.0))))
 
 
 def uncertain_priors(model, known=()) -> dict[str, tuple[float, float, float]]:
@@ -757,9 +770,13 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
         parts += rows
         held = partial(held_sea, band_fraction=settings.band_fraction)
         seas = {source: held(omega, wave, dirs)}  # every defensible sea of the window
+        log_odds = {}
         if source == "estimated from motions":
             hw, hd, hs_name = window_wave_spectrum(hc, row, lat, lon, omega)
             seas[hs_name] = held(omega, hw, hd)
+            fit = sea[sea["window_id"] == str(row.window_id)].iloc[0]  # misfits are ½Σr²: r the whitened residuals;
+            # halved, as sea_estimation's n_eff: adjacent Welch bins of a Hann window are correlated
+            log_odds[hs_name] = -0.5 * float(fit["hindcast_misfit"] - fit["fitted_misfit"])
         by_mode = {}  # a mode's own sea: roll against the sea fitted without the roll channels
         found = estimated_wave_spectrum(sea_roll, str(row.window_id), omega) if sea_roll is not None else None
         if found is not None:
@@ -767,7 +784,7 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
             seas[by_mode["Roll"]] = held(omega, found[0], found[1])
         per_window.append({"window_id": str(row.window_id), "estimates": estimates, "omega": omega,
                            **seas[source], "heading": row.heading_deg, "draft": draft, "seas": seas,
-                           "sea_name": source, "sea_by_mode": by_mode,
+                           "sea_name": source, "sea_by_mode": by_mode, "sea_log_odds": log_odds,
                            "tp_rel_std": unc.tp_std_s / unc.tp,
                            "low_confidence": window_flag,
                            "modes": mode_spectra(model, modes, spec_w,
