@@ -540,9 +540,10 @@ def posterior_rows(model, rows: list[dict], center, known, settings, shifted=())
     that ω_n combined with the coupled modes over the loading prior (`identification.natural_frequency.
     mode_posterior`), as a row of method "posterior". The measurement's own interval is kept in its row; this one
     is the best estimate given what the vessel YAML and `identify.known` say about the loading. A DOF measured more
-    than 3σ from the model over the whole prior is an effect the model lacks, not a loading: it keeps its
-    measurement, with a note, and is left out of the others' loading weights (which it would drag to the prior's
-    tail: on the bank's osv_imu_lever_arm_042 a heave 6.7σ off moved pitch from −1.2 % to +6.0 %)."""
+    than 3σ from the model over the whole prior is an effect the model lacks (a moonpool, a misplaced IMU), not a
+    loading: it is left out of the loading weights, which it would drag to the prior's tail (on the bank's
+    osv_imu_lever_arm_042 a heave 6.7σ off moved pitch from −1.2 % to +6.0 %), and its row is the model's mode
+    given the other modes, with a note; its measurement keeps its own row."""
     from scipy.stats import norm
 
     from seatune.identification.natural_frequency import mode_posterior
@@ -570,9 +571,9 @@ def posterior_rows(model, rows: list[dict], center, known, settings, shifted=())
             continue
         omega, std, note = float(post.omega[i]), float(post.std[i]), None
         if apart[i]:
-            omega, std = float(m[i]), float(s[i])
-            note = (f"the measurement alone: it lies {z_prior[i]:+.1f}σ from the model over the loading prior "
-                    f"({post.prior_mean[i]:.3f} ± {post.prior_std[i]:.3f} rad/s)")
+            note = (f"the model's mode given the other modes: the measurement, {m[i]:.3f} rad/s, lies "
+                    f"{z_prior[i]:+.1f}σ from it over the loading prior ({post.prior_mean[i]:.3f} ± "
+                    f"{post.prior_std[i]:.3f} rad/s), which no loading explains")
         out.append({"dof": dof, "method": "posterior", "window_id": "all", "omega_n": omega,
                     "ci_low": omega - z * std, "ci_high": omega + z * std,
                     "zeta": measured[dof]["zeta"], "model_prior": measured[dof]["model_prior"],
