@@ -386,15 +386,16 @@ def _split_starts(x: np.ndarray) -> list[np.ndarray]:
 
 
 def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_from_deg: np.ndarray,
-                 h: np.ndarray, h_design: np.ndarray, priors: list[PartitionPrior], *, max_partitions: int = 4,
+                 g: np.ndarray, g_design: np.ndarray, priors: list[PartitionPrior], *, max_partitions: int = 4,
                  min_hs: float = 0.3, channel_names=(), welch: WelchWindow | None = None) -> SeaEstimate:
     """MAP directional sea of one window.
 
     omega : (nω,) the band to fit [rad/s]; phi_measured : (nω, nch, nch) Φ̂ on it; nu : its degrees of freedom
-    dirs_from_deg : (nD,) equally spaced coming-from directions; h : (nω, nD, nch) RAOs of the current loading
-    there; h_design : (L, nω, nD, nch) RAOs of the loading prior's design points (RAO uncertainty)
+    dirs_from_deg : (nD,) equally spaced coming-from directions; g : (nω, nD, nch²) H Hᴴ of the current loading's
+    RAOs there, packed as `outer_raos`; g_design : (L, nω, nD, nch²) those of the loading prior's design points (RAO
+    uncertainty)
     priors : the hindcast's partitions (at least one)
-    welch : the model compared as Welch's estimate sees it (h and h_design then on welch.omega): a roll resonance or
+    welch : the model compared as Welch's estimate sees it (g and g_design then on welch.omega): a roll resonance or
     a swell narrower than the bin spacing is smeared over its neighbours; None: the model at the bins
     """
     nch = phi_measured.shape[1]
@@ -406,10 +407,9 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
     x_prior = np.array([p.mean() for p in priors])
     model_omega = omega if welch is None else welch.omega
     wave0 = partition_spectrum(model_omega, dirs_from_deg, x_prior)
-    g = outer_raos(h)
     base = _Problem(model_omega, dirs_from_deg, g, np.log(auto_m), coh_m, floor, np.ones_like(auto_m),
                     np.ones(coh_m.shape), pairs, welch)
-    stats = [base.statistics(base.at_bins(model_cross_spectra(outer_raos(hd), wave0))) for hd in h_design]
+    stats = [base.statistics(base.at_bins(model_cross_spectra(gd, wave0))) for gd in g_design]
     la = np.array([s[0] for s in stats])
     ch = np.array([s[1] for s in stats])
     auto_std = np.sqrt(2.0 / nu + la.std(axis=0) ** 2 + 0.1**2)

@@ -153,15 +153,30 @@ def raos_at(vessel, loading, channels, omega, dirs_from, heading_deg) -> np.ndar
     equation of motion solved at each ω with the vessel's effects, linear in β on the database's periodic grid."""
     from seatune.diagnosis.model import effect_channel_raos
 
-    db = vessel.db
     h = effect_channel_raos(vessel, loading, channels, omega)  # (L, nω, nb, nch), solved at each ω
-    beta = np.mod(heading_deg - dirs_from - 180.0, 360.0)
-    grid = np.degrees(db.wave_direction)
-    step = 360.0 / grid.size
-    i = np.floor(beta / step).astype(int) % grid.size
-    f = (beta - grid[i]) / step
-    f = np.where(f < 0, f + 360.0 / step, f)
-    return (1 - f)[None, None, :, None] * h[:, :, i, :] + f[None, None, :, None] * h[:, :, (i + 1) % grid.size, :]
+    return _between_directions(vessel, h, dirs_from, heading_deg)
+
+
+def outer_raos_at(vessel, loading, channels, omega, dirs_from, heading_deg) -> np.ndarray:
+    """H Hᴴ of the channels packed as `outer_raos` (L, nω, nD, nch²) at ω and the coming-from directions D: the
+    products on the database's β grid, then linear in β, as the sea split onto the grid (tune and diagnose do the
+    same with |H|²). Not the product of H linear in β: 15° apart, a short wave's phase along the hull turns by
+    radians, and the complex mean lost power — on the blind bank 20 % at 1 rad/s and up to 2/3 at 1.8–2 rad/s,
+    which the sea fit made up with more Hs."""
+    from seatune.diagnosis.model import effect_channel_raos
+    from seatune.identification.sea_estimation import outer_raos
+
+    g = outer_raos(effect_channel_raos(vessel, loading, channels, omega))  # (L, nω, nb, nch²)
+    return _between_directions(vessel, g, dirs_from, heading_deg)
+
+
+def _between_directions(vessel, x: np.ndarray, dirs_from, heading_deg) -> np.ndarray:
+    """x (…, nω, nb, k) on the database's β grid, linear in β at each coming-from direction D: (…, nω, nD, k)."""
+    from seatune.physics.extremes import direction_weights
+
+    beta = np.mod(heading_deg - np.asarray(dirs_from, dtype=float) - 180.0, 360.0)
+    i0, i1, f = direction_weights(beta, np.degrees(vessel.db.wave_direction))
+    return (1 - f)[:, None] * x[..., i0, :] + f[:, None] * x[..., i1, :]
 
 
 def estimate_window(
@@ -193,14 +208,14 @@ def _estimate_from_spectra(vessel, design, channels, spectra, priors, settings, 
         omega <= min(settings.omega_max, vessel.db.omega[-1])
     )
     welch = WelchWindow(*welch_grid(omega[band], segment_s, refine=WELCH_REFINE, lobes=WELCH_LOBES))
-    h_all = raos_at(vessel, design, channels, welch.omega, DIRS_FROM, heading_deg)
+    g_all = outer_raos_at(vessel, design, channels, welch.omega, DIRS_FROM, heading_deg)
     return estimate_sea(
         omega[band],
         phi[band],
         nu,
         DIRS_FROM,
-        h_all[0],
-        h_all,
+        g_all[0],
+        g_all,
         priors,
         max_partitions=settings.max_partitions,
         min_hs=settings.min_hs,
