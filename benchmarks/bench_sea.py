@@ -1,7 +1,7 @@
 """The sea estimate of one 40-min window of the sample vessel (pipeline.sea.estimate_window, issue 16: < 1 s).
 
 Data: the default sea channels of the sample's IMU (roll, pitch, yaw rate, three specific forces) synthesised from
-the model's RAOs in a two-partition sea plus a swell the
+the model's RAOs on the database's directions in a two-partition sea plus a swell the
 "hindcast" prior lacks (random phases, 10 Hz). Reference: the same fit with scipy's 2-point Jacobian (a whole
 residual evaluation per column) and the model cross-spectra summed direction by direction in a Python loop (what
 Φ = Σ_D H Hᴴ S ΔD reads as), instead of the batched Jacobian and one batched product.
@@ -33,7 +33,7 @@ def _scipy_jacobian(self, x, priors, lower, upper):
 
 
 def _window(model, heading, channels, seed=3):
-    from seatune.identification.sea_estimation import DIRS_FROM, partition_spectrum
+    from seatune.identification.sea_estimation import partition_spectrum
     from seatune.pipeline.sea import raos_at
 
     rng = np.random.default_rng(seed)
@@ -41,9 +41,11 @@ def _window(model, heading, channels, seed=3):
     x_true = np.array([[np.log(1.5), np.log(7.5), 200.0, np.log(28.0), np.log(3.3)],
                        [np.log(1.2), np.log(11.5), 280.0, np.log(12.0), np.log(4.0)],
                        [np.log(0.8), np.log(16.0), 20.0, np.log(10.0), np.log(3.0)]])
-    s = partition_spectrum(omega, DIRS_FROM, x_true)
-    h = raos_at(model, model.base_loading, channels, omega, DIRS_FROM, heading)[0]
-    amp = np.sqrt(2 * s * (omega[1] - omega[0]) * np.radians(5.0))  # (nω, nD)
+    # the components on the database's own directions, where the RAOs are exact (the sea split onto that grid)
+    dirs = np.sort(np.mod(heading - np.degrees(model.db.wave_direction) - 180.0, 360.0))
+    s = partition_spectrum(omega, dirs, x_true)
+    h = raos_at(model, model.base_loading, channels, omega, dirs, heading)[0]
+    amp = np.sqrt(2 * s * (omega[1] - omega[0]) * 2 * np.pi / dirs.size)  # (nω, nD)
     phase = rng.uniform(0, 2 * np.pi, amp.shape)
     t = np.arange(0, 2400, 0.1)
     c = (h * (amp * np.exp(1j * phase))[:, :, None]).sum(axis=1)  # (nω, nch)
