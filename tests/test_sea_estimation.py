@@ -154,6 +154,27 @@ def test_the_sea_model_between_database_directions_keeps_a_short_sea_s_power():
     assert (old[-2:, :3] / want[-2:, :3]).max() < 0.8  # before: 0.59–0.79 above 1.5 rad/s
 
 
+def test_the_fit_takes_the_log_of_a_chi2_spectrum_back_by_its_bias():
+    """A wave probe (H = 1) in a known sea, its spectrum drawn as S·χ²_ν/ν (ν = 20) on 400 bins: the log of such an
+    estimate is low by ψ(ν/2) − ln(ν/2) = −0.051 in mean, which fitted as it stands puts Hs 2.5 % low. Taken back
+    (as diagnose's residuals are), six draws' Hs average within 1.5 % of the truth (seen +0.9 %; −1.6 % without)."""
+    from scipy import stats
+
+    from seatune.identification.sea_estimation import DIRS_FROM, PartitionPrior, estimate_sea, partition_spectrum
+
+    omega = np.linspace(0.3, 2.0, 400)
+    x_true = np.array([[np.log(2.0), np.log(8.0), 90.0, np.log(25.0), np.log(3.3)]])
+    s1 = partition_spectrum(omega, DIRS_FROM, x_true).sum(axis=1) * np.radians(5.0)
+    g = np.ones((omega.size, DIRS_FROM.size, 1))
+    nu = 20.0
+    prior = PartitionPrior(1.5, 8.0, 90.0, 25.0, 3.3, hs_log_std=2.0, tp_log_std=1e-3, dir_std_deg=1.0,
+                           spread_log_std=1e-3, gamma_log_std=1e-3)  # Hs free, the rest held
+    hs = [estimate_sea(omega, (s1 * stats.chi2(nu).rvs(omega.size, random_state=seed) / nu)[:, None, None], nu,
+                       DIRS_FROM, g, g[None], [prior], max_partitions=1).partitions[0].value["hs"]
+          for seed in range(6)]
+    assert abs(np.mean(hs) / 2.0 - 1) < 0.015
+
+
 def test_the_fit_compares_the_model_as_welch_sees_it():
     """A lightly damped resonance (ζ = 0.03) narrower than the 128 s bins, driven by white noise: scipy's Welch
     estimate of a 6 h record is the smoothed model at every bin within its sampling error, while the model at the

@@ -45,7 +45,7 @@ from dataclasses import dataclass, field, replace
 from functools import cache
 
 import numpy as np
-from scipy import optimize, signal
+from scipy import optimize, signal, special
 
 from seatune.physics.spectra import _peak_exponent, _pm_shape
 
@@ -417,7 +417,11 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
     # coherence error, eq. 9.52) floored at 0.5/ν; plus the design spread and 0.05 of model error
     coh_std = np.sqrt((1.0 - np.abs(coh_m) ** 2) ** 2 / nu + 0.5 / nu + ch.real.std(axis=0) ** 2
                       + ch.imag.std(axis=0) ** 2 + 0.05**2)
-    problem = _Problem(model_omega, dirs_from_deg, g, np.log(auto_m), coh_m, floor, auto_std, coh_std, pairs, welch)
+    # E[ln Ŝ] = ln S + ψ(ν/2) − ln(ν/2) for a χ²_ν estimate (as diagnose's residuals): the measured log taken back
+    # by it, in proportion to Ŝ's share of Ŝ + floor
+    log_bias = float(special.digamma(nu / 2.0) - np.log(nu / 2.0))
+    log_auto = np.log(auto_m) - log_bias * (auto_m - floor) / auto_m
+    problem = _Problem(model_omega, dirs_from_deg, g, log_auto, coh_m, floor, auto_std, coh_std, pairs, welch)
 
     cost_hindcast = 0.5 * float(np.sum(problem.residuals(x_prior.ravel(), list(priors)) ** 2))
     fit = _fit(problem, x_prior, list(priors))
