@@ -795,7 +795,7 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
         per_window.append({"window_id": str(row.window_id), "estimates": estimates, "omega": omega,
                            **seas[source], "heading": row.heading_deg, "draft": draft, "seas": seas,
                            "sea_name": source, "sea_by_mode": by_mode, "sea_log_odds": log_odds,
-                           "tp_rel_std": unc.tp_std_s / unc.tp,
+                           "tp_rel_std": unc.tilt_tp_rel_std,
                            "low_confidence": window_flag,
                            "modes": mode_spectra(model, modes, spec_w,
                                                  motions.window(row.start, row.end, record=row.record),
