@@ -694,3 +694,18 @@ def test_pooling_the_records_windows_corrects_a_persistent_hindcast_error(biased
     both = alone.merge(pooled, on=["window_id", "kind"], suffixes=("_alone", "_pooled"))
     both = both[both["found_alone"] & both["found_pooled"]]
     assert np.allclose(both["hindcast_hs_rel_error_alone"], both["hindcast_hs_rel_error_pooled"])
+
+
+def test_identify_s_tilt_term_takes_the_estimate_s_own_tp_error():
+    """window_uncertainty floors an estimate's Tp std at 0.2 s for tune; identify's shared tilt term takes the fit's
+    own (on the bank 3× smaller in median), the hindcast's uncertainty where the sea is the hindcast's."""
+    from seatune.io.run_yaml import HindcastUncertainty
+    from seatune.pipeline.sea import window_uncertainty
+
+    sea = pd.DataFrame({"window_id": ["1", "1"], "hs": [1.5, 0.8], "hs_std": [0.05, 0.05], "tp": [7.0, 12.0],
+                        "tp_std": [0.07, 0.3], "dir_from_deg_std": [2.0, 4.0], "system": [0, 1]})
+    est = window_uncertainty(sea, "1", HindcastUncertainty())
+    assert est.tp_std_s == 0.2 and est.tilt_tp_rel_std == pytest.approx(0.07 / 7.0)
+    row = pd.Series({"hs": 1.6, "tp": 8.0})
+    given = window_uncertainty(None, "1", HindcastUncertainty(tp_std_s=0.5), row)
+    assert given.tilt_tp_rel_std == pytest.approx(0.5 / 8.0)
