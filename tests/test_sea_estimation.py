@@ -703,9 +703,11 @@ def test_identify_s_tilt_term_takes_the_estimate_s_own_tp_error():
     from seatune.pipeline.sea import window_uncertainty
 
     sea = pd.DataFrame({"window_id": ["1", "1"], "hs": [1.5, 0.8], "hs_std": [0.05, 0.05], "tp": [7.0, 12.0],
-                        "tp_std": [0.07, 0.3], "dir_from_deg_std": [2.0, 4.0], "system": [0, 1]})
+                        "tp_std": [0.07, 0.3], "dir_from_deg_std": [2.0, 4.0], "system": [0, 1],
+                        "hindcast_misfit": [300.0, 300.0], "fitted_misfit": [200.0, 200.0]})
     est = window_uncertainty(sea, "1", HindcastUncertainty())
     assert est.tp_std_s == 0.2 and est.tilt_tp_rel_std == pytest.approx(0.07 / 7.0)
+    assert est.hindcast_log_odds == pytest.approx(-50.0)  # ½ of the misfits' difference
     row = pd.Series({"hs": 1.6, "tp": 8.0})
     given = window_uncertainty(None, "1", HindcastUncertainty(tp_std_s=0.5), row)
     assert given.tilt_tp_rel_std == pytest.approx(0.5 / 8.0)

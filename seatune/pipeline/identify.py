@@ -110,13 +110,14 @@ def power_in_sea(db, power: np.ndarray, omega: np.ndarray, dirs_from: np.ndarray
 
 
 def at_sea_directions(db, power: np.ndarray, dirs_from: np.ndarray, heading_deg: float) -> np.ndarray:
-    """A quantity (n, nb, k) on the database's headings β, at the β of each source direction D: (n, nD, k)."""
-    beta = np.mod(heading_deg - dirs_from - 180.0, 360.0)  # DESIGN §3
+    """A quantity (…, nb, k) on the database's headings β, linear in β at the β of each source direction D:
+    (…, nD, k)."""
+    beta = np.mod(heading_deg - np.asarray(dirs_from, dtype=float) - 180.0, 360.0)  # DESIGN §3
     grid = np.degrees(db.wave_direction)
     ext = np.r_[grid, 360.0]
     idx = np.clip(np.searchsorted(ext, beta, side="right") - 1, 0, grid.size - 1)
-    f = (beta - ext[idx]) / (ext[idx + 1] - ext[idx])
-    return (1 - f)[None, :, None] * power[:, idx, :] + f[None, :, None] * power[:, (idx + 1) % grid.size, :]
+    f = ((beta - ext[idx]) / (ext[idx + 1] - ext[idx]))[:, None]
+    return (1 - f) * power[..., idx, :] + f * power[..., (idx + 1) % grid.size, :]
 
 
 def effective_model_rao(model, loading, channel_names, omega, dirs_from, S2d, heading_deg) -> np.ndarray:
@@ -784,9 +785,7 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
         if source == "estimated from motions":
             hw, hd, hs_name = window_wave_spectrum(hc, row, lat, lon, omega)
             seas[hs_name] = held(omega, hw, hd)
-            fit = sea[sea["window_id"] == str(row.window_id)].iloc[0]  # misfits are ½Σr²: r the whitened residuals;
-            # halved, as sea_estimation's n_eff: adjacent Welch bins of a Hann window are correlated
-            log_odds[hs_name] = -0.5 * float(fit["hindcast_misfit"] - fit["fitted_misfit"])
+            log_odds[hs_name] = unc.hindcast_log_odds
         by_mode = {}  # a mode's own sea: roll against the sea fitted without the roll channels
         found = estimated_wave_spectrum(sea_roll, str(row.window_id), omega) if sea_roll is not None else None
         if found is not None:

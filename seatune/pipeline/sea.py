@@ -152,9 +152,10 @@ def raos_at(vessel, loading, channels, omega, dirs_from, heading_deg) -> np.ndar
     """Channel RAOs (L, nω, nD, nch) at ω and the coming-from directions D (β = ψ − D − 180°, DESIGN §3): the
     equation of motion solved at each ω with the vessel's effects, linear in β on the database's periodic grid."""
     from seatune.diagnosis.model import effect_channel_raos
+    from seatune.pipeline.identify import at_sea_directions
 
     h = effect_channel_raos(vessel, loading, channels, omega)  # (L, nω, nb, nch), solved at each ω
-    return _between_directions(vessel, h, dirs_from, heading_deg)
+    return at_sea_directions(vessel.db, h, dirs_from, heading_deg)
 
 
 def outer_raos_at(vessel, loading, channels, omega, dirs_from, heading_deg) -> np.ndarray:
@@ -165,18 +166,10 @@ def outer_raos_at(vessel, loading, channels, omega, dirs_from, heading_deg) -> n
     1.8–2 rad/s for a 5 s sea (tests/test_sea_estimation.py), which the sea fit made up with more Hs."""
     from seatune.diagnosis.model import effect_channel_raos
     from seatune.identification.sea_estimation import outer_raos
+    from seatune.pipeline.identify import at_sea_directions
 
     g = outer_raos(effect_channel_raos(vessel, loading, channels, omega))  # (L, nω, nb, nch²)
-    return _between_directions(vessel, g, dirs_from, heading_deg)
-
-
-def _between_directions(vessel, x: np.ndarray, dirs_from, heading_deg) -> np.ndarray:
-    """x (…, nω, nb, k) on the database's β grid, linear in β at each coming-from direction D: (…, nω, nD, k)."""
-    from seatune.physics.extremes import direction_weights
-
-    beta = np.mod(heading_deg - np.asarray(dirs_from, dtype=float) - 180.0, 360.0)
-    i0, i1, f = direction_weights(beta, np.degrees(vessel.db.wave_direction))
-    return (1 - f)[:, None] * x[..., i0, :] + f[:, None] * x[..., i1, :]
+    return at_sea_directions(vessel.db, g, dirs_from, heading_deg)
 
 
 def estimate_window(
@@ -640,6 +633,9 @@ class WindowSea:
     dir_std_deg: float
     estimated: bool
     fit_tp_std_s: float = float("nan")  # the estimate's own Tp std, unfloored (NaN: the hindcast's sea)
+    # ln p(hindcast's sea) / p(estimate) from the fit's misfits (½Σr² of whitened residuals), halved as the fit's
+    # n_eff: adjacent Welch bins of a Hann window are correlated (0: the hindcast's sea)
+    hindcast_log_odds: float = 0.0
 
     @property
     def tilt_tp_rel_std(self) -> float:
@@ -677,4 +673,5 @@ def window_uncertainty(sea: pd.DataFrame | None, window_id, unc, hindcast_row=No
         max(float(top["dir_from_deg_std"]), 3.0),
         True,
         float(top["tp_std"]),
+        -0.5 * float(top["hindcast_misfit"] - top["fitted_misfit"]),
     )
