@@ -264,6 +264,8 @@ def test_two_shapes_of_one_peak_are_one_system():
     [(1.45, 8.6, 25.0, 21.0, 4.0), (1.03, 11.0, 344.0, 11.0, 7.0)],
     [(0.94, 12.4, 194.0, 4.0, 7.0), (0.74, 14.4, 217.0, 16.0, 4.0)],  # one Ochi–Hubble swell fitted by two shapes
     [(0.98, 12.3, 147.0, 8.0, 4.0), (1.11, 15.4, 138.0, 17.0, 4.0)],
+    [(1.93, 9.47, 152.4, 26.1, 3.23), (0.72, 12.8, 107.8, 13.3, 3.04)],  # a broad wind sea and a swell 44° away
+    [(1.52, 8.79, 24.8, 30.9, 3.3), (1.02, 11.2, 342.9, 10.5, 2.89)],
 ])
 def test_wave_systems_count_as_wavespectras_hanson_phillips_partitioning(pair):
     """Pairs the blind bank's sea estimates held: one system or two as wavespectra's watershed + HP01 combining
