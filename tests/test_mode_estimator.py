@@ -186,3 +186,40 @@ def test_a_mode_no_loading_explains_does_not_steer_the_others():
     assert abs(post["Heave"]["omega_n"] / nat[0] - 1) < 0.05  # the model's, not the measurement's 20 % off
     dragged = mode_posterior(draws, m, 0.01 * m, settings.mode_model_rel_std).omega[2]
     assert abs(dragged / post["Pitch"]["omega_n"] - 1) > 0.005  # not vacuous: 1.3 % here
+
+
+def test_a_response_spectrum_peak_enters_the_posterior_where_the_admittance_failed():
+    """Roll whose admittance fit failed in every window still has its response spectrum's peak: that value and
+    interval are combined with the loading prior as an admittance measurement would be (on the bank the peak alone
+    had put barge_clean_023's roll 13 % off); where the admittance measured, its value is the one taken."""
+    from scipy.stats import norm
+
+    from seatune.identification.natural_frequency import mode_posterior
+
+    model = open_vessel(ROOT / "configs" / "vessels" / "sample_osv.yaml")
+    settings = IdentifySettings()
+    center = model.base_loading
+    nat = natural_frequencies(model.db, center)[0]
+    z = norm.ppf(0.5 + settings.confidence / 2)
+
+    def row(dof, omega, rel_std, method="admittance_peak_sdof"):
+        return {"dof": dof, "method": method, "window_id": "all", "omega_n": omega,
+                "ci_low": omega * (1 - rel_std * z), "ci_high": omega * (1 + rel_std * z), "zeta": np.nan,
+                "model_prior": float(nat[1])}
+
+    failed = {"dof": "Roll", "method": "admittance_peak_sdof", "window_id": "all", "omega_n": np.nan,
+              "ci_low": np.nan, "ci_high": np.nan, "zeta": np.nan, "model_prior": float(nat[1]),
+              "reason": "not identified: no resonance peak fitted (8 of 8 windows)"}
+    peak = row("Roll", 1.13 * float(nat[1]), 0.10, "response_spectrum_peak")
+    others = [row("Heave", 1.005 * float(nat[0]), 0.01), row("Pitch", 0.995 * float(nat[2]), 0.01)]
+    post = {r["dof"]: r for r in ident.posterior_rows(model, [*others, failed, peak], center, (), settings)}
+    draws = natural_frequencies(model.db, ident.prior_draws(model, center))
+    m = np.array([others[0]["omega_n"], peak["omega_n"], others[1]["omega_n"]])
+    expected = mode_posterior(draws, m, np.array([0.01, 0.10, 0.01]) * m, settings.mode_model_rel_std)
+    assert post["Roll"]["omega_n"] == pytest.approx(expected.omega[1], rel=1e-12)
+    assert abs(post["Roll"]["omega_n"] / nat[1] - 1) < 0.5 * abs(peak["omega_n"] / nat[1] - 1)  # pulled in
+    both = {r["dof"]: r for r in ident.posterior_rows(
+        model, [*others, row("Roll", 1.01 * float(nat[1]), 0.01), peak], center, (), settings)}
+    alone = {r["dof"]: r for r in ident.posterior_rows(
+        model, [*others, row("Roll", 1.01 * float(nat[1]), 0.01)], center, (), settings)}
+    assert both["Roll"]["omega_n"] == alone["Roll"]["omega_n"]
