@@ -112,12 +112,11 @@ def power_in_sea(db, power: np.ndarray, omega: np.ndarray, dirs_from: np.ndarray
 def at_sea_directions(db, power: np.ndarray, dirs_from: np.ndarray, heading_deg: float) -> np.ndarray:
     """A quantity (…, nb, k) on the database's headings β, linear in β at the β of each source direction D:
     (…, nD, k)."""
+    from seatune.physics.extremes import direction_weights
+
     beta = np.mod(heading_deg - np.asarray(dirs_from, dtype=float) - 180.0, 360.0)  # DESIGN §3
-    grid = np.degrees(db.wave_direction)
-    ext = np.r_[grid, 360.0]
-    idx = np.clip(np.searchsorted(ext, beta, side="right") - 1, 0, grid.size - 1)
-    f = ((beta - ext[idx]) / (ext[idx + 1] - ext[idx]))[:, None]
-    return (1 - f) * power[..., idx, :] + f * power[..., (idx + 1) % grid.size, :]
+    i0, i1, f = direction_weights(beta, np.degrees(db.wave_direction))
+    return (1 - f)[:, None] * power[..., i0, :] + f[:, None] * power[..., i1, :]
 
 
 def effective_model_rao(model, loading, channel_names, omega, dirs_from, S2d, heading_deg) -> np.ndarray:
