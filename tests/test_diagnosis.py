@@ -17,7 +17,14 @@ from scipy.stats import multivariate_normal
 from seatune.diagnosis import residuals as res
 from seatune.diagnosis.effects import library
 from seatune.diagnosis.model import SpectralModel, WindowSet, long_crested_wave, welch_grid
-from seatune.diagnosis.select import BIN_CORRELATION, COMMON_SHARE, INDEPENDENT_FLOOR, Diagnoser, window_nll
+from seatune.diagnosis.select import (
+    BIN_CORRELATION,
+    COMMON_SHARE,
+    INDEPENDENT_FLOOR,
+    Diagnoser,
+    out_of_sample_required,
+    window_nll,
+)
 from seatune.identification.sea_estimation import direction_difference_deg
 from seatune.physics.channels import Channel, transfer_vectors
 from seatune.physics.spectra import jonswap
@@ -369,6 +376,16 @@ def test_a_vessel_effect_is_named_behind_a_missing_swell(sample_model):
     assert moonpool["area"] == pytest.approx(trials.EFFECTS["moonpool"]["area"], rel=0.25), moonpool
     gaps = d.gaps[d.named]
     assert gaps["gap_holdout_after"] <= 0.5 * gaps["gap_holdout_before"], gaps
+
+
+def test_the_first_vessel_effect_needs_no_out_of_sample_help_even_behind_a_sea_correction():
+    """The out-of-sample condition binds once a vessel effect is in the model: a sea-side correction named first
+    leaves the next candidate the first vessel effect, judged as at the first step."""
+    assert not out_of_sample_required(())
+    for sea_side in ("missing_swell", "hs_bias", "wave_spreading"):
+        assert not out_of_sample_required((sea_side,)), sea_side
+    assert out_of_sample_required(("moonpool",))
+    assert out_of_sample_required(("missing_swell", "imu_lever_arm"))
 
 
 @pytest.mark.slow

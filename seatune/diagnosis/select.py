@@ -326,9 +326,9 @@ class Diagnoser:
         model and fit the others with it (its parameters refitted jointly), until none passes or `max_named` vessel
         effects are named. A sea-side correction does not count: the sea gets one, and vessel effects are then
         sought on top of it (on the blind bank a named swell or spreading had hidden a moonpool, a misalignment and
-        a lever arm). From the second step on, the model with the effect added must also help out of sample
-        (held-out gap and σ error below the tuned model's); at the first step that stays a report, since there it
-        would drop half the correct names.
+        a lever arm). Once a vessel effect is named, the model with the next one added must also help out of sample
+        (held-out gap and σ error below the tuned model's); for the first vessel effect that stays a report, since
+        there it would drop half the correct names (`out_of_sample_required`).
         `phi_before`: the tuned loading the gap is measured from (default the start); "refit": the loading refitted
         here without any effect (what a tuning on these windows gives)."""
         wave_given = self.data.wave
@@ -391,13 +391,15 @@ class Diagnoser:
             ctx.gaps[f.effect] = {**{f"{k}_before": v for k, v in before.items()},
                                   **{f"{k}_after": v for k, v in after_.items()}}
             ctx.left[f.effect] = res.bands(ctx.train_data, rf[self.train], sdf[self.train], self.modes(f.phi))
-        return {"fit": f, "step": step, "given": tuple(g.name for g, _ in _members(step_base)),
+        given = tuple(g.name for g, _ in _members(step_base))
+        return {"fit": f, "step": step, "given": given,
                 "added": _members(f)[-1][0].name if f.n_params else "none",
                 "gain_train": gain_t, "gain_holdout": gain_h, "bic_penalty": penalty,
                 "joint_gain_train": ctx.base.nll_train - f.nll_train,
                 "joint_gain_holdout": ctx.base.nll_holdout - f.nll_holdout, "at_bound": edge, "score": score,
                 "eligible": bool(added > 0 and strong and not edge
-                                 and (step == 1 or helps_out_of_sample(ctx.gaps[f.effect]) is not False)),
+                                 and (not out_of_sample_required(given)
+                                      or helps_out_of_sample(ctx.gaps[f.effect]) is not False)),
                 "selected": False,
                 "false_alarm_p": np.nan, "null_gain_q95": np.nan, "cross_fold_gain": np.nan}
 
@@ -572,6 +574,14 @@ def turned(wave: np.ndarray, d_dir_deg: np.ndarray) -> np.ndarray:
         f = sh - k
         out[w] = (1 - f) * np.roll(wave[w], k, axis=1) + f * np.roll(wave[w], k + 1, axis=1)
     return out
+
+
+def out_of_sample_required(given: tuple[str, ...]) -> bool:
+    """Whether a candidate over the effects `given` must also help out of sample to be named: once a vessel effect
+    is in the model. Over none, or over a sea-side correction only, it is the first vessel effect and the condition
+    stays a report (blind bank: osv_imu_lever_arm_042's 48 m lever arm, behind a swell named on a full hindcast,
+    held out 16 nats better but was dropped for a held-out σ error 0.14 → 0.43 in the sea fitted without it)."""
+    return any(name not in SEA_SIDE for name in given)
 
 
 def helps_out_of_sample(gaps: dict) -> bool | None:

@@ -201,7 +201,7 @@ def diagnosis_table(diag, effects, alternated=None, rounds: int = 0) -> pd.DataF
 
 def out_of_sample(gaps: dict) -> str:
     """'helps' when the held-out gap and σ error both fall with the row's effects, else 'fits training only'
-    (issue 17; a condition for naming from the second step on, diagnosis/select.py)."""
+    (issue 17; a condition for naming once a vessel effect is in the model, diagnosis/select.py)."""
     from seatune.diagnosis.select import helps_out_of_sample
 
     helps = helps_out_of_sample(gaps)
