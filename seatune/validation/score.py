@@ -229,7 +229,7 @@ def sea_metrics(sea: pd.DataFrame, estimate: str = "final") -> pd.DataFrame:
     def add(metric, group, value, n, target=None):
         if estimate != "final":
             group, target = f"{group} ({estimate})", None
-        out.append({"metric": metric, "group": group, "value": value, "n": n, "target": target,
+        out.append({"metric": metric, "group": group, "value": value, "n": n, "target": _target(target),
                     "passed": None if target is None or not np.isfinite(value) else bool(value >= target)})
 
     if sea.empty:
@@ -281,6 +281,11 @@ def summary_units(columns) -> dict[str, str]:
     return units
 
 
+def _target(target: float | None) -> float:
+    """A figure's target as a float, NaN where it has none (a column of one dtype in every metrics table)."""
+    return np.nan if target is None else float(target)
+
+
 def _rate(x: pd.Series) -> tuple[float, int]:
     x = x.dropna().astype(bool)
     return (float(x.mean()) if len(x) else np.nan), int(len(x))
@@ -294,7 +299,8 @@ def bank_metrics(summary: pd.DataFrame) -> pd.DataFrame:
     def add(metric, group, value, n, target=None, higher_better=True):
         passed = None if target is None or not np.isfinite(value) else bool(
             value >= target if higher_better else value <= target)
-        out.append({"metric": metric, "group": group, "value": value, "n": n, "target": target, "passed": passed})
+        out.append({"metric": metric, "group": group, "value": value, "n": n, "target": _target(target),
+                    "passed": passed})
 
     add("runs_ok", "all", float(len(ok)), len(summary))
     clean = ok[ok["category"] == "clean"]
