@@ -20,7 +20,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from seatune.physics.channels import AXES, Channel, point_translation, transfer_vectors
-from seatune.physics.extremes import direction_weight_matrix
 from seatune.physics.response import trapezoid_weights
 
 
@@ -347,7 +346,7 @@ class MissingSwell(Effect):
 
         s = jonswap(parts.omega, params["hs"], params["tp"], 3.0)  # swell: peaked JONSWAP
         beta = np.mod(model.data.heading_deg - params["dir_from_deg"] - 180.0, 360.0)  # DESIGN §3
-        parts.wave = parts.wave + s[None, :, None] * direction_weight_matrix(beta, np.degrees(parts.beta))[:, None, :]
+        parts.wave = parts.wave + s[None, :, None] * _direction_weights(beta, np.degrees(parts.beta))[:, None, :]
 
 
 class WaveSpreading(Effect):
@@ -367,6 +366,15 @@ def spreading_kernel(beta: np.ndarray, spread_deg: float) -> np.ndarray:
 
     kernel = spreading_cos2s(beta - beta[:, None], float(cos2s_s_from_spread(np.radians(spread_deg))))
     return kernel / kernel.sum(axis=0, keepdims=True)
+
+
+def _direction_weights(beta_deg: np.ndarray, grid_deg: np.ndarray) -> np.ndarray:
+    """Split a direction between its two neighbours on the equally spaced grid: (n, nb), rows sum to 1."""
+    from seatune.physics.spectra import _long_crested_weights
+
+    grid = np.radians(grid_deg)
+    step = 2 * np.pi / grid.size
+    return _long_crested_weights(grid, np.argsort(grid), step, np.radians(np.asarray(beta_deg, float)), True) * step
 
 
 def library(names=None, moonpool_position=(0.0, 0.0), imu_sensor: str = "imu", vessel=None,

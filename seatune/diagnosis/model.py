@@ -226,9 +226,9 @@ def analysis_mask(measured: np.ndarray, omega: np.ndarray, omega_lo: float, omeg
 def long_crested_wave(omega: np.ndarray, spectrum: np.ndarray, beta_deg: np.ndarray,
                       grid_rad: np.ndarray) -> np.ndarray:
     """S(ω) travelling at body-relative β per window, split onto the database directions: (nw, nf, nb)."""
-    from seatune.physics.extremes import direction_weight_matrix
+    from seatune.diagnosis.effects import _direction_weights
 
-    weights = direction_weight_matrix(np.atleast_1d(beta_deg), np.degrees(grid_rad))  # (nw, nb)
+    weights = _direction_weights(np.atleast_1d(beta_deg), np.degrees(grid_rad))  # (nw, nb)
     return np.atleast_2d(spectrum)[:, :, None] * weights[:, None, :]
 
 

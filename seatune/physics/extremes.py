@@ -149,14 +149,8 @@ def rotation_operator(dirs_from_deg: np.ndarray, grid_deg: np.ndarray, headings_
     neighbouring database directions (so |H|² is interpolated linearly in β, as the tuning's forward model)."""
     beta = (np.asarray(headings_deg, dtype=float)[None, :, None] - np.asarray(dirs_from_deg, dtype=float)[None, None, :]
             - 180.0 + np.asarray(offsets_deg, dtype=float)[:, None, None])  # (h, p, nD)
-    return direction_weight_matrix(beta, grid_deg)
-
-
-def direction_weight_matrix(beta_deg: np.ndarray, grid_deg: np.ndarray) -> np.ndarray:
-    """`direction_weights` as a matrix: (..., nb) for angles β of any shape, each row the two neighbours' weights
-    (summing to 1)."""
-    i0, i1, f = direction_weights(beta_deg, grid_deg)
-    out = np.zeros(np.shape(f) + (len(grid_deg),))
+    i0, i1, f = direction_weights(beta, grid_deg)
+    out = np.zeros(beta.shape + (len(grid_deg),))
     np.put_along_axis(out, i0[..., None], (1.0 - f)[..., None], axis=-1)
     # i1 ≠ i0 always (nb ≥ 2), so adding the second weight never overwrites the first
     np.put_along_axis(out, i1[..., None], np.take_along_axis(out, i1[..., None], axis=-1) + f[..., None], axis=-1)

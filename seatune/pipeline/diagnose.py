@@ -51,11 +51,11 @@ RESIDUAL_UNITS = {"window_id": "", "role": "", "channel": "", "omega": "rad/s", 
 
 def body_wave(S2d: np.ndarray, dirs_from: np.ndarray, heading_deg: float, grid_rad: np.ndarray) -> np.ndarray:
     """S(ω, D) on coming-from directions → S(ω, β_b)·Δβ on the database's body-relative directions (DESIGN §3)."""
-    from seatune.physics.extremes import direction_weight_matrix
+    from seatune.diagnosis.effects import _direction_weights
 
     d_dir = direction_step(dirs_from)
     beta = np.mod(heading_deg - np.asarray(dirs_from, dtype=float) - 180.0, 360.0)
-    return (S2d * d_dir) @ direction_weight_matrix(beta, np.degrees(grid_rad))
+    return (S2d * d_dir) @ _direction_weights(beta, np.degrees(grid_rad))
 
 
 def tuned_phi(run, parameters) -> np.ndarray:
