@@ -388,6 +388,38 @@ def test_the_first_vessel_effect_needs_no_out_of_sample_help_even_behind_a_sea_c
     assert out_of_sample_required(("missing_swell", "imu_lever_arm"))
 
 
+def test_a_sea_side_correction_before_a_vessel_effect_is_dropped_and_tested_again(sample_model):
+    """A lever arm in expected spectra (no noise) with a swell named before it: `without_sea_side` refits the arm
+    alone from where the joint fit stood, and `retest` drops a swell the data lack and keeps one they hold."""
+    from seatune.diagnosis.effects import Compound, ImuLeverArm, MissingSwell
+    from seatune.diagnosis.select import Fit
+
+    data, truth_phi = trials.noise_free_set(sample_model, 5)
+    model = Diagnoser(sample_model, trials.PARAMETERS, data, truth_phi).model
+    arm, lever = {"dx": 6.0, "dy": 1.5, "dz": 2.0}, ImuLeverArm()
+    named = Compound([(MissingSwell(), {"hs": 0.8, "tp": 12.0, "dir_from_deg": 90.0})], lever)
+    joint = {"missing_swell.hs": 0.8, "missing_swell.tp": 12.0, "missing_swell.dir_from_deg": 90.0,
+             **{f"imu_lever_arm.{k}": v + 0.5 for k, v in arm.items()}}
+    swell = {"hs": 1.5, "tp": 14.0, "dir_from_deg": 150.0}
+    for with_swell in (False, True):
+        data.measured = (model.spectra(truth_phi, Compound([(lever, arm)], MissingSwell()),
+                                       {**{f"imu_lever_arm.{k}": v for k, v in arm.items()},
+                                        **{f"missing_swell.{k}": v for k, v in swell.items()}})
+                         if with_swell else model.spectra(truth_phi, lever, arm))
+        diag = Diagnoser(sample_model, trials.PARAMETERS, data, truth_phi)
+        diag.fit(None)
+        start = Fit(named.name, joint, truth_phi, np.nan, np.nan, 6, True, effect_used=named)
+        alone = diag.without_sea_side(start)
+        assert alone.effect == "imu_lever_arm" and diag.without_sea_side(alone) is None
+        kept, gain_train, gain_holdout = diag.retest(alone, MissingSwell())
+        if with_swell:
+            assert kept is not None and gain_holdout > 4.0, (gain_train, gain_holdout)
+        else:
+            for k, v in arm.items():
+                assert alone.params[k] == pytest.approx(v, abs=0.2), alone.params
+            assert kept is None and gain_holdout < 4.0, (gain_train, gain_holdout)
+
+
 @pytest.mark.slow
 def test_hidden_effect_trials_over_many_seeds(sample_model):
     """Issue 8's acceptance over 10 seeds per effect (random headings and sea states) and 10 clean trials."""

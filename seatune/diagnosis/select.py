@@ -368,6 +368,34 @@ class Diagnoser:
                          bands_after=ctx.left, residual_before=(r0, sd0), residual_after=(r1, sd1), gaps=ctx.gaps,
                          parameter_names=tuple(p.name for p in self.parameters))
 
+    def without_sea_side(self, fit: Fit) -> Fit | None:
+        """`fit`'s vessel effects refitted alone from their values and loading in `fit`, its sea-side corrections
+        dropped; None unless it holds both. The sea it was fitted in had absorbed the vessel effect, and a sea-side
+        correction can take the rest (blind bank, osv_imu_lever_arm_042: a 2.6 m swell named on a full hindcast before
+        a 48 m lever arm); diagnose alternates the vessel effects alone with the sea and re-tests it (`retest`)."""
+        members = _members(fit)
+        vessel = [(e, p) for e, p in members if e.name not in SEA_SIDE]
+        if not vessel or len(vessel) == len(members):
+            return None
+        if len(vessel) == 1:
+            effect, params = vessel[0][0], vessel[0][1]
+        else:
+            effect = Compound(vessel[:-1], vessel[-1][0])
+            params = {f"{e.name}.{k}": v for e, p in vessel for k, v in p.items()}
+        start = Fit(effect.name, params, fit.phi, np.nan, np.nan, len(effect.parameters), True, effect_used=effect)
+        return self._fit(effect, (), None, x_from=start)
+
+    def retest(self, fit: Fit, effect) -> tuple[Fit | None, float, float]:
+        """`effect` added to `fit` in this Diagnoser's sea and judged by the naming rule's gains (held-out gain over
+        the threshold, training gain over BIC's penalty, no parameter at a bound): (the fit with it, or None when it
+        fails; training gain; held-out gain)."""
+        both = self.fit(Compound(_members(fit), effect), start=fit)
+        gain_t, gain_h = fit.nll_train - both.nll_train, fit.nll_holdout - both.nll_holdout
+        penalty = 0.5 * len(effect.parameters) * np.log(max(self.n_train, 2.0))
+        passes = (_score(gain_t, gain_h, penalty) > HOLDOUT_MIN and (gain_t > penalty or not np.isfinite(gain_h))
+                  and not _at_bound(both.effect_used, both.params))
+        return (both if passes else None), float(gain_t), float(gain_h)
+
     def _fit_candidate(self, given, bands, step_base: Fit, effect) -> Fit:
         return self.fit(Compound(given, effect) if given else effect, bands, start=step_base)
 

@@ -14,6 +14,7 @@ with the effect in the model).
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +44,7 @@ DIAGNOSIS_UNITS = {
     "sigma_error_after_holdout": "dimensionless", "bands_before": "", "bands_after": "",
     "fitted_with_sea": "text; JSON, the final step's effects after alternating with the sea, units in fitted_units",
     "alternation_rounds": "",
+    "withdrawn": "",
 }
 RESIDUAL_UNITS = {"window_id": "", "role": "", "channel": "", "omega": "rad/s", "log_ratio_before": "dimensionless",
                   "log_ratio_after": "dimensionless", "z_before": "dimensionless", "z_after": "dimensionless",
@@ -153,11 +155,12 @@ def null_sea(calibration):
     return NullSea(**calibration.model_dump())
 
 
-def diagnosis_table(diag, effects, alternated=None, rounds: int = 0) -> pd.DataFrame:
+def diagnosis_table(diag, effects, alternated=None, rounds: int = 0, withdrawn=()) -> pd.DataFrame:
     """One row per candidate and step of the greedy selection (DESIGN §5): the step's gains are over the effects
     named before it (`given`), the joint ones over the model without effect; gaps are the tuned model's against
     the model with the row's effects. `alternated`: the final model's Fit after `rounds` of alternation with the
-    sea, its parameters on the last selected row (`fitted_with_sea`)."""
+    sea, its parameters on the last selected row (`fitted_with_sea`). `withdrawn`: sea-side corrections the re-test
+    in the alternated sea dropped (their rows `withdrawn`, no longer `selected`)."""
     from seatune.diagnosis.residuals import describe
 
     by_name = {e.name: e for e in effects}
@@ -188,8 +191,10 @@ def diagnosis_table(diag, effects, alternated=None, rounds: int = 0) -> pd.DataF
                for when in ("before", "after") for role in ("train", "holdout")},
             "bands_before": before,
             "bands_after": "; ".join(describe(b) for b in diag.bands_after[f.effect]) or "none left",
-            "fitted_with_sea": "", "alternation_rounds": 0})
+            "fitted_with_sea": "", "alternation_rounds": 0, "withdrawn": False})
     table = pd.DataFrame(out, columns=list(DIAGNOSIS_UNITS))
+    gone = table["selected"] & table["effect"].isin(withdrawn)  # a sea-side correction the alternated sea took over
+    table.loc[gone, "selected"], table.loc[gone, "withdrawn"] = False, True
     chosen = table.index[table["selected"]]
     if len(chosen) and alternated is not None:  # the final step's effects as the alternation left them
         last, own = chosen[-1], f"{table.loc[chosen[-1], 'effect']}."
@@ -252,8 +257,6 @@ def sea_with_effects(run, vessel, parameters, phi, augmented: Path, echo=print) 
     them): an effect the sea stage's model lacked (an IMU lever arm's specific forces, a tank's roll) had been
     absorbed by the sea. The loading belief: the refitted values with the tune's posterior std (the prior's for
     the parameters diagnose adds)."""
-    from dataclasses import replace
-
     from seatune.pipeline.sea import posterior_parameters, sea_stage, window_hs
     from seatune.pipeline.vessel import open_run_vessel
 
@@ -290,8 +293,6 @@ def alternate_with_sea(run, vessel, diagnoser, channels, diag, augmented: Path, 
     search range) or after `max_rounds`. The sea stage's fit had absorbed part of each effect: on the blind bank
     the lever arms named came out 10–20 % short. The selection's evidence (gains, gaps) stays that of the common
     sea; the augmented vessel YAML takes the alternated values. Returns (the final Fit, the rounds made)."""
-    from dataclasses import replace
-
     fit, moves = diag.winner, []
     for _ in range(max_rounds):
         data = window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE)
@@ -311,6 +312,25 @@ def alternate_with_sea(run, vessel, diagnoser, channels, diag, augmented: Path, 
     echo(f"diagnose: alternated with the sea, {rounds} round(s), largest relative change per round "
          f"{', '.join(f'{100 * m:.1f} %' for m in moves)}: {change}")
     return fit, rounds
+
+
+def retest_sea_side(run, vessel, diagnoser, channels, diag, corrections, augmented: Path, echo=print):
+    """Each sea-side correction named before a vessel effect, tested again on top of the vessel effects in the sea
+    alternated with them (`Diagnoser.retest`); one that still passes joins the final model and
+    augmented_vessel.yaml again. Returns (the final Fit, the names withdrawn)."""
+    fit, withdrawn = diag.winner, []
+    for effect in corrections:
+        data = window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE)
+        kept, gain_t, gain_h = run_diagnoser(run, vessel, diagnoser.parameters, data,
+                                             diagnoser.phi_start).retest(fit, effect)
+        echo(f"diagnose: {effect.name} tested again in the sea alternated with the vessel effects: "
+             f"{gain_t:.1f} nats training, {gain_h:.1f} held out: {'kept' if kept else 'withdrawn'}")
+        if kept is None:
+            withdrawn.append(effect.name)
+        else:
+            fit = kept
+            augmented_vessel_yaml(vessel, replace(diag, winner=fit), augmented)
+    return fit, withdrawn
 
 
 def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
@@ -354,16 +374,24 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
         augmented_vessel_yaml(vessel, diag, augmented)
     else:
         augmented.unlink(missing_ok=True)  # a previous diagnosis' effect no longer holds
-    alternated, rounds = None, 0
+    alternated, rounds, withdrawn = None, 0, []
     if run.spec.sea.estimate and any(e.name not in SEA_SIDE for e, _ in diag.named_effects):
+        alone = diagnoser.without_sea_side(diag.winner) if settings.alternation_rounds else None
+        if alone is not None:  # the vessel effects alternate alone; the sea-side correction is tested again after
+            withdrawn = [e for e, _ in diag.named_effects if e.name in SEA_SIDE]
+            diag = replace(diag, winner=alone)
+            augmented_vessel_yaml(vessel, diag, augmented)
         sea_with_effects(run, vessel, parameters, diag.winner.phi, augmented, echo)
-        if settings.alternation_rounds and not any(e.name in SEA_SIDE for e, _ in diag.named_effects):
-            # (a named sea-side correction is in the refitted sea already: it would be counted twice)
+        if settings.alternation_rounds:
             alternated, rounds = alternate_with_sea(run, vessel, diagnoser, channels, diag, augmented,
                                                     settings.alternation_rounds, echo)
+            if withdrawn:
+                alternated, withdrawn = retest_sea_side(run, vessel, diagnoser, channels,
+                                                        replace(diag, winner=alternated), withdrawn, augmented, echo)
+                diag = replace(diag, winner=alternated)
     else:  # no vessel effect named: the sea stage's model stands
         run.artefact(DIAGNOSED_SEA_FILE).unlink(missing_ok=True)
-    table = diagnosis_table(diag, effects, alternated, rounds)
+    table = diagnosis_table(diag, effects, alternated, rounds, withdrawn)
     write_table(residual_table(data, diag), outs[1], RESIDUAL_UNITS, meta)
     write_table(table, outs[0], DIAGNOSIS_UNITS, meta)
     chosen = table[table["selected"]]
