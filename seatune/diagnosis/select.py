@@ -391,10 +391,13 @@ class Diagnoser:
         fails; training gain; held-out gain)."""
         both = self.fit(Compound(_members(fit), effect), start=fit)
         gain_t, gain_h = fit.nll_train - both.nll_train, fit.nll_holdout - both.nll_holdout
-        penalty = 0.5 * len(effect.parameters) * np.log(max(self.n_train, 2.0))
-        passes = (_score(gain_t, gain_h, penalty) > HOLDOUT_MIN and (gain_t > penalty or not np.isfinite(gain_h))
-                  and not _at_bound(both.effect_used, both.params))
+        passes = _strong(gain_t, gain_h, self._bic_penalty(len(effect.parameters))) and not _at_bound(
+            both.effect_used, both.params)
         return (both if passes else None), float(gain_t), float(gain_h)
+
+    def _bic_penalty(self, n_params: int) -> float:
+        """BIC's penalty [nat] of `n_params` more parameters on the training bins."""
+        return 0.5 * n_params * np.log(max(self.n_train, 2.0))
 
     def _fit_candidate(self, given, bands, step_base: Fit, effect) -> Fit:
         return self.fit(Compound(given, effect) if given else effect, bands, start=step_base)
@@ -404,10 +407,10 @@ class Diagnoser:
         over the model without effect, the eligibility rule, and (in `ctx`) its residuals, gaps and bands left."""
         added = f.n_params - step_base.n_params
         gain_t, gain_h = step_base.nll_train - f.nll_train, step_base.nll_holdout - f.nll_holdout
-        penalty = 0.5 * added * np.log(max(self.n_train, 2.0))
+        penalty = self._bic_penalty(added)
         edge = ", ".join(_at_bound(f.effect_used, f.params))
         score = _score(gain_t, gain_h, penalty)
-        strong = score > HOLDOUT_MIN and (gain_t > penalty or not np.isfinite(gain_h))
+        strong = _strong(gain_t, gain_h, penalty)
         r0, sd0, pred0 = ctx.before
         if f.effect not in ctx.cache:
             ctx.cache[f.effect] = rf, sdf, predf = self.residuals(f.phi, f.effect_used, f.params)
@@ -619,6 +622,13 @@ def helps_out_of_sample(gaps: dict) -> bool | None:
         return None
     return bool(gaps["gap_holdout_after"] < gaps["gap_holdout_before"]
                 and gaps["sigma_error_holdout_after"] <= gaps["sigma_error_holdout_before"])
+
+
+def _strong(gain_train: float, gain_holdout: float, bic_penalty: float) -> bool:
+    """The naming rule's evidence test: the score over HOLDOUT_MIN, and the training gain over BIC's penalty where
+    there are held-out windows."""
+    return bool(_score(gain_train, gain_holdout, bic_penalty) > HOLDOUT_MIN
+                and (gain_train > bic_penalty or not np.isfinite(gain_holdout)))
 
 
 def _score(gain_train: float, gain_holdout: float, bic_penalty: float) -> float:

@@ -319,10 +319,10 @@ def retest_sea_side(run, vessel, diagnoser, channels, diag, corrections, augment
     alternated with them (`Diagnoser.retest`); one that still passes joins the final model and
     augmented_vessel.yaml again. Returns (the final Fit, the names withdrawn)."""
     fit, withdrawn = diag.winner, []
+    alternated_sea = run_diagnoser(run, vessel, diagnoser.parameters,
+                                   window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE), diagnoser.phi_start)
     for effect in corrections:
-        data = window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE)
-        kept, gain_t, gain_h = run_diagnoser(run, vessel, diagnoser.parameters, data,
-                                             diagnoser.phi_start).retest(fit, effect)
+        kept, gain_t, gain_h = alternated_sea.retest(fit, effect)
         echo(f"diagnose: {effect.name} tested again in the sea alternated with the vessel effects: "
              f"{gain_t:.1f} nats training, {gain_h:.1f} held out: {'kept' if kept else 'withdrawn'}")
         if kept is None:
@@ -370,17 +370,17 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     diag = diagnoser.run(effects, max_named=settings.max_effects)
     train = data.roles == "train"
     meta = {"fingerprint": fp}
+    alternated, rounds, withdrawn = None, 0, []
+    alone = (diagnoser.without_sea_side(diag.winner)
+             if run.spec.sea.estimate and settings.alternation_rounds and diag.winner is not None else None)
+    if alone is not None:  # the vessel effects alternate alone; the sea-side correction is tested again after
+        withdrawn = [e for e, _ in diag.named_effects if e.name in SEA_SIDE]
+        diag = replace(diag, winner=alone)
     if diag.winner is not None:
         augmented_vessel_yaml(vessel, diag, augmented)
     else:
         augmented.unlink(missing_ok=True)  # a previous diagnosis' effect no longer holds
-    alternated, rounds, withdrawn = None, 0, []
     if run.spec.sea.estimate and any(e.name not in SEA_SIDE for e, _ in diag.named_effects):
-        alone = diagnoser.without_sea_side(diag.winner) if settings.alternation_rounds else None
-        if alone is not None:  # the vessel effects alternate alone; the sea-side correction is tested again after
-            withdrawn = [e for e, _ in diag.named_effects if e.name in SEA_SIDE]
-            diag = replace(diag, winner=alone)
-            augmented_vessel_yaml(vessel, diag, augmented)
         sea_with_effects(run, vessel, parameters, diag.winner.phi, augmented, echo)
         if settings.alternation_rounds:
             alternated, rounds = alternate_with_sea(run, vessel, diagnoser, channels, diag, augmented,
