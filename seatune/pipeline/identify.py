@@ -27,6 +27,18 @@ RAO_UNITS = {"scope": "", "window_id": "", "channel": "", "omega": "rad/s", "rao
              "ci_low": RAO_PER_ROW, "ci_high": RAO_PER_ROW, "model_prior": RAO_PER_ROW,
              "low_confidence": "", "reason": "", "beta_deg": "deg", "sector_deg": "deg", "hs": "m",
              "hs_bin_m": "m", "n_windows": "", "wave_source": ""}
+DIAGNOSED_NF_FILE = "natural_frequencies_diagnosed.parquet"  # diagnose's: ω_n in the sea refitted through its effects
+
+
+def final_natural_frequencies(run_dir):
+    """The run's last natural frequencies: diagnose's (in the sea refitted through the vessel effects it named)
+    where it wrote them, else identify's."""
+    from pathlib import Path
+
+    diagnosed = Path(run_dir) / DIAGNOSED_NF_FILE
+    return diagnosed if diagnosed.is_file() else Path(run_dir) / "natural_frequencies.parquet"
+
+
 NF_UNITS = {"dof": "", "method": "", "window_id": "", "omega_n": "rad/s", "ci_low": "rad/s", "ci_high": "rad/s",
             "zeta": "dimensionless", "model_prior": "rad/s", "derived": "",
             "derived_value": "per row; the unit named in `derived`",
@@ -746,12 +758,9 @@ def load_draft(model, loading) -> float:
 
 
 def identify_stage(run, model, echo=print, force: bool = False) -> dict:
-    from seatune.io.hindcast_readers import read_hindcast
-    from seatune.io.motion_table import MotionTable
     from seatune.io.parquet import write_table
     from seatune.io.rundir import fingerprint, is_fresh
-    from seatune.physics.response import natural_frequencies
-    from seatune.pipeline.sea import estimated_wave_spectrum, read_sea_states, sea_inputs, window_uncertainty
+    from seatune.pipeline.sea import read_sea_states, sea_inputs
 
     settings, uncertainty = run.spec.identify, run.spec.hindcast.uncertainty
     src = [run.artefact("windows.parquet"), run.artefact("window_spectra.parquet"), run.artefact("motions.parquet"),
@@ -761,10 +770,36 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
     out_r, out_n = run.artefact("raos.parquet"), run.artefact("natural_frequencies.parquet")
     if not force and is_fresh([out_r, out_n], fp):
         return {"skipped": True}
+    windows = pd.read_parquet(src[0])
+    raos, nat, per_window, prior_omega = identified(run, model, read_sea_states(run),
+                                                    read_sea_states(run, roll_free=True))
+    write_table(raos, out_r, RAO_UNITS, {"fingerprint": fp})
+    write_table(nat, out_n, NF_UNITS, {"fingerprint": fp})
+    combined = nat[(nat["window_id"] == "all") & nat["derived"].isna() & (nat["method"] == "admittance_peak_sdof")]
+    omega_n = dict(zip(combined["dof"], combined["omega_n"], strict=True))
+    not_identified = {r.dof: r.reason for r in combined.itertuples() if not np.isfinite(r.omega_n)}
+    post = nat[nat["method"] == "posterior"]
+    posterior = dict(zip(post["dof"], post["omega_n"], strict=True))
+    return {"skipped": False, "windows": int(windows["accepted"].sum()),
+            "low_confidence": sum(w["low_confidence"] for w in per_window),
+            "channels": int(raos["channel"].nunique()), "omega_n": omega_n, "prior_omega_n": prior_omega,
+            "not_identified": not_identified, "posterior_omega_n": posterior,
+            "roll_omega_n": omega_n.get("Roll", float("nan")), "prior_roll_omega_n": prior_omega["Roll"]}
+
+
+def identified(run, model, sea: pd.DataFrame | None, sea_roll: pd.DataFrame | None):
+    """(raos, natural frequencies, per-window inputs, the prior's ω_n by DOF) of the run's accepted windows in the
+    sea `sea` (None: the hindcast), roll also in `sea_roll` (the sea fitted without the roll channels, or None)."""
+    from seatune.io.hindcast_readers import read_hindcast
+    from seatune.io.motion_table import MotionTable
+    from seatune.physics.response import natural_frequencies
+    from seatune.pipeline.sea import estimated_wave_spectrum, window_uncertainty
+
+    settings, uncertainty = run.spec.identify, run.spec.hindcast.uncertainty
+    src = [run.artefact("windows.parquet"), run.artefact("window_spectra.parquet"), run.artefact("motions.parquet")]
     windows, spectra = pd.read_parquet(src[0]), pd.read_parquet(src[1])
     motions = MotionTable(src[2])
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
-    sea, sea_roll = read_sea_states(run), read_sea_states(run, roll_free=True)
     prior = model.base_loading
     draft = float(load_draft(model, prior))
     modes = mode_channels(model, set(spectra["channel"].unique()))
@@ -824,16 +859,4 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
 
         rows += posterior_rows(model, rows, known, settings.known, settings, shifted_modes(model.spec.effects))
     rows += derived_parameters(model, known, rows)
-    nat = pd.DataFrame(rows, columns=list(NF_UNITS))
-    write_table(raos, out_r, RAO_UNITS, {"fingerprint": fp})
-    write_table(nat, out_n, NF_UNITS, {"fingerprint": fp})
-    combined = nat[(nat["window_id"] == "all") & nat["derived"].isna() & (nat["method"] == "admittance_peak_sdof")]
-    omega_n = dict(zip(combined["dof"], combined["omega_n"], strict=True))
-    not_identified = {r.dof: r.reason for r in combined.itertuples() if not np.isfinite(r.omega_n)}
-    post = nat[nat["method"] == "posterior"]
-    posterior = dict(zip(post["dof"], post["omega_n"], strict=True))
-    return {"skipped": False, "windows": int(windows["accepted"].sum()),
-            "low_confidence": sum(w["low_confidence"] for w in per_window),
-            "channels": int(raos["channel"].nunique()), "omega_n": omega_n, "prior_omega_n": prior_omega,
-            "not_identified": not_identified, "posterior_omega_n": posterior,
-            "roll_omega_n": omega_n.get("Roll", float("nan")), "prior_roll_omega_n": prior_omega["Roll"]}
+    return raos, pd.DataFrame(rows, columns=list(NF_UNITS)), per_window, prior_omega
