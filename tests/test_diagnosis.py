@@ -482,6 +482,7 @@ def test_diagnose_writes_the_design_tables(diagnosed):
     if not named:
         assert "no known effect explains the misfit" in line or "no effect needed" in line
         assert not (out / "augmented_vessel.yaml").exists()
+    assert not (out / "natural_frequencies_diagnosed.parquet").exists()  # only with a vessel effect named
     # no vessel effect named: nothing to alternate with the sea
     assert (d["fitted_with_sea"] == "").all() and (d["alternation_rounds"] == 0).all()
     again = run_cli("diagnose", tmp / "run.yaml")
@@ -576,6 +577,13 @@ def test_full_simulated_trial_with_a_tank_is_diagnosed(tmp_path):
     assert json.loads(final["fitted_with_sea"]) == pytest.approx({k: entry[k] for k in ("omega_t", "zeta_t", "mu")},
                                                                   rel=1e-5)
     assert run_cli("vessel", "info", augmented).returncode == 0
+    # identify once more in the sea refitted through the tank: every DOF with a value or a reason
+    from seatune.identification.natural_frequency import primary_natural_frequencies
+
+    again = primary_natural_frequencies(pd.read_parquet(tmp_path / "run" / "natural_frequencies_diagnosed.parquet"))
+    assert set(again.index) >= {"Heave", "Roll", "Pitch"}
+    assert all(np.isfinite(r.omega_n) or r.reason for r in again.itertuples())
+    assert "natural frequencies in the sea refitted through the named effects" in res.stdout
     # re-tune with the real backend on the augmented vessel: the loading moves towards the truth (A7's lesson)
     run.update(vessel=str(augmented), run_dir=str(tmp_path / "retuned"))
     (tmp_path / "retune.yaml").write_text(yaml.safe_dump(run))

@@ -168,6 +168,7 @@ def test_make_validate_on_the_ci_bank(tmp_path, trials):
         diag = pd.read_parquet(rd / "diagnosis.parquet")
         vessel_side = {e for e in diag.loc[diag["selected"].astype(bool), "effect"] if e not in (*SEA_SIDE, "none")}
         assert (rd / "sea_states_diagnosed.parquet").is_file() == bool(vessel_side), entry["name"]
+        assert (rd / "natural_frequencies_diagnosed.parquet").is_file() == bool(vessel_side), entry["name"]
     sea_groups = metrics.loc[metrics["metric"] == "sea_wind_hs_within_10pct", "group"]
     assert set(sea_groups) == {"wind sea", "wind sea (sea stage)"}
     assert "Figures against the targets" in (out / "index.html").read_text()

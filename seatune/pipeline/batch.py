@@ -332,7 +332,9 @@ def key_figures(run_dir: Path) -> tuple[dict, dict]:
         for col in ("prior", "tuned"):  # mean |log(predicted / measured)|, as tune's summary line
             row[f"heldout_error_{col}"] = float(np.mean(np.abs(np.log(held[f"predicted_{col}"] / held["measured"]))))
             units[f"heldout_error_{col}"] = ""
-    nat = run_dir / "natural_frequencies.parquet"
+    from seatune.pipeline.identify import final_natural_frequencies
+
+    nat = final_natural_frequencies(run_dir)
     if nat.is_file():
         from seatune.identification.natural_frequency import primary_natural_frequencies
 

@@ -20,7 +20,7 @@ import seatune
 from seatune.errors import UserError
 from seatune.physics.spectra import omnidirectional
 from seatune.pipeline.filter import STATS_UNITS
-from seatune.pipeline.identify import NF_UNITS, RAO_UNITS
+from seatune.pipeline.identify import DIAGNOSED_NF_FILE, NF_UNITS, RAO_UNITS
 from seatune.pipeline.sea import read_sea_states, window_hs
 from seatune.pipeline.windows import rejection_counts
 
@@ -28,12 +28,13 @@ REQUIRED = ("motions.parquet", "waves.parquet", "windows.parquet", "window_stats
             "natural_frequencies.parquet")
 OPTIONAL = ("window_spectra.parquet", "sea_states.parquet", "tuning_history.parquet", "validation.parquet",
             "tuned_vessel.yaml", "diagnosis.parquet", "diagnosis_residuals.parquet", "sea_states_diagnosed.parquet",
-            "prediction.parquet")
+            DIAGNOSED_NF_FILE, "prediction.parquet")
 # What each stage after windows writes: left out of the page when the stage did not run this time
 STAGE_ARTEFACTS = {"filter": ("window_stats.parquet", "window_spectra.parquet"), "sea": ("sea_states.parquet",),
                    "identify": ("raos.parquet", "natural_frequencies.parquet"),
                    "tune": ("tuning_history.parquet", "validation.parquet", "tuned_vessel.yaml"),
-                   "diagnose": ("diagnosis.parquet", "diagnosis_residuals.parquet", "sea_states_diagnosed.parquet")}
+                   "diagnose": ("diagnosis.parquet", "diagnosis_residuals.parquet", "sea_states_diagnosed.parquet",
+                                DIAGNOSED_NF_FILE)}
 SPECTRUM_OMEGA_MAX = 2.5  # rad/s: the response spectra plotted up to here (or the database's last frequency)
 TRACK_COLUMNS = ["time", "record", "lat", "lon", "sog", "heading_deg"]
 
@@ -200,6 +201,7 @@ def report_stage(run, vessel, echo=print, force: bool = False, not_run: dict[str
         rejections=rejection_counts(windows) if len(windows) else [],
         window_stats=stage_table("window_stats.parquet", STATS_UNITS), raos=raos,
         natural_frequencies=stage_table("natural_frequencies.parquet", NF_UNITS), history=history,
+        natural_frequencies_diagnosed=optional(DIAGNOSED_NF_FILE),
         validation=optional("validation.parquet"), prediction=optional("prediction.parquet"),
         prediction_units=column_units(run.artefact("prediction.parquet")) if run.artefact("prediction.parquet").exists()
         else {},

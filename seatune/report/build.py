@@ -332,6 +332,23 @@ def mode_shape_words(modes, which: str) -> dict[str, str]:
     }
 
 
+def diagnosed_sea_modes_table(nf_diagnosed: pd.DataFrame | None, before: pd.DataFrame) -> str:
+    """identify's ω_n again in the sea diagnose refitted through the effects it named, beside the ones above."""
+    if nf_diagnosed is None or nf_diagnosed.empty:
+        return ""
+    after = primary_natural_frequencies(nf_diagnosed)
+    rows = [{"DOF": dof, "ω_n": after.loc[dof, "omega_n"],
+             "95 % interval": f"{after.loc[dof, 'ci_low']:.3f} – {after.loc[dof, 'ci_high']:.3f}",
+             "in the sea stage's sea": before.loc[dof, "omega_n"] if dof in before.index else np.nan}
+            for dof in DOFS if dof in after.index]
+    t = pd.DataFrame(rows)
+    t["change"] = t["ω_n"] / t["in the sea stage's sea"] - 1
+    return H.table(t, {"ω_n": "rad/s", "95 % interval": "rad/s", "in the sea stage's sea": "rad/s", "change": "%"},
+                   caption="The natural frequencies seatune delivers: identified once more in the sea refitted "
+                           "through the vessel effects diagnose named (the sea stage's fit had absorbed them), with "
+                           "the loading prior", formats={"change": _pct}, digits=4)
+
+
 def natural_frequencies_section(inp: ReportInputs, tuned: dict[str, float] | None) -> str:
     nf = inp.natural_frequencies
     body = H.figure(P.png(P.natural_frequency_plot, nf, tuned),
@@ -370,6 +387,7 @@ def natural_frequencies_section(inp: ReportInputs, tuned: dict[str, float] | Non
                         caption="Natural frequencies with the loading prior: each measured ω_n combined with the "
                                 "coupled modes over the vessel's loading priors (identify.known held, with "
                                 "identify.mode_model_rel_std): the best estimate before tuning", digits=4)
+    body += diagnosed_sea_modes_table(inp.natural_frequencies_diagnosed, best)
     derived = derived_values(nf)
     if derived:
         d = pd.DataFrame([{"derived from ω_n": label, "value": v, "std": s, "unit": u}

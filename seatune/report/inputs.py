@@ -36,6 +36,8 @@ class ReportInputs:
     window_stats: pd.DataFrame
     raos: pd.DataFrame
     natural_frequencies: pd.DataFrame
+    # natural_frequencies_diagnosed.parquet: identify's ω_n in the sea diagnose refitted through its named effects
+    natural_frequencies_diagnosed: pd.DataFrame | None = None
     history: pd.DataFrame | None = None
     validation: pd.DataFrame | None = None
     tuned_raos: pd.DataFrame | None = None

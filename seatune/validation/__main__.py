@@ -20,7 +20,7 @@ import yaml
 from seatune.errors import UserError
 
 ARTEFACTS = ("tuning_history", "validation", "natural_frequencies", "diagnosis", "sea_states",
-             "sea_states_diagnosed")
+             "sea_states_diagnosed", "natural_frequencies_diagnosed")
 
 
 def read_bank(bank: Path) -> list[tuple[str, Path]]:
@@ -112,6 +112,9 @@ def score_bank(bank: Path, references: dict[Path, dict] | None = None) -> tuple[
         arts = {a: pd.read_parquet(rd / f"{a}.parquet") if (rd / f"{a}.parquet").is_file() else None
                 for a in ARTEFACTS}
         missing = [a for a in ("tuning_history", "natural_frequencies", "diagnosis") if arts[a] is None]
+        if arts["natural_frequencies_diagnosed"] is not None:  # the ω_n seatune delivers, as the sea below
+            arts["natural_frequencies_stage"] = arts["natural_frequencies"]
+            arts["natural_frequencies"] = arts["natural_frequencies_diagnosed"]
         status, message = ("ok", "") if not missing else ("failed", f"no {', '.join(missing)} in {rd}")
         rows.append(score_trial(truth, arts, model_modes_at_truth(truth, folder, cache), status, message,
                                 tuned_model_modes(rd), (references or {}).get(folder)))

@@ -73,8 +73,9 @@ def primary_modes(nf: pd.DataFrame | None, measured_only: bool = False) -> dict[
 def score_trial(truth: dict, artefacts: dict[str, pd.DataFrame | None], model_modes: dict[str, float] | None = None,
                 status: str = "ok", message: str = "", tuned_modes: dict[str, float] | None = None,
                 reference: dict[str, tuple[float, float]] | None = None) -> dict:
-    """One row of bank_summary.parquet. `artefacts`: tuning_history, validation, natural_frequencies, diagnosis
-    (None when missing); `model_modes`: the vessel model's coupled ω_n at the true loading by DOF; `tuned_modes`:
+    """One row of bank_summary.parquet. `artefacts`: tuning_history, validation, natural_frequencies (the final:
+    diagnose's where it wrote them, then identify's are natural_frequencies_stage), diagnosis (None when missing);
+    `model_modes`: the vessel model's coupled ω_n at the true loading by DOF; `tuned_modes`:
     the tuned model's; `reference`: the posterior {parameter: (mean, std)} of the same run tuned with the true
     sea (validation/true_sea.py)."""
     true_effects = {e["kind"] for e in truth.get("effects") or []}
@@ -109,6 +110,9 @@ def score_trial(truth: dict, artefacts: dict[str, pd.DataFrame | None], model_mo
                         if np.isfinite(ref_mean) and np.isfinite(mean) else None}
     modes = primary_modes(artefacts.get("natural_frequencies"))
     measured = primary_modes(artefacts.get("natural_frequencies"), measured_only=True)  # without the loading prior
+    # identify's own, where `natural_frequencies` is diagnose's (in the sea refitted through the named effects)
+    stage = primary_modes(artefacts["natural_frequencies_stage"]) if artefacts.get(
+        "natural_frequencies_stage") is not None else modes
     for d in DOFS:
         t = float((truth.get("natural_frequencies") or {}).get(d, np.nan))
         m = modes.get(d, {"omega_n": np.nan, "ci_low": np.nan, "ci_high": np.nan, "reason": ""})  # silent
@@ -121,7 +125,8 @@ def score_trial(truth: dict, artefacts: dict[str, pd.DataFrame | None], model_mo
                 f"omega_{d}_model_at_truth": model, f"omega_{d}_model_rel_error": model / t - 1,
                 f"omega_{d}_model_in_ci": bool(m["ci_low"] <= model <= m["ci_high"]) if reported else None,
                 f"omega_{d}_tuned_model_rel_error": (tuned_modes or {}).get(d, np.nan) / t - 1,
-                f"omega_{d}_measured_rel_error": measured.get(d, {}).get("omega_n", np.nan) / t - 1}
+                f"omega_{d}_measured_rel_error": measured.get(d, {}).get("omega_n", np.nan) / t - 1,
+                f"omega_{d}_stage_rel_error": stage.get(d, m)["omega_n"] / t - 1}
     row["heldout_error_prior"] = heldout_error(artefacts.get("validation"), "predicted_prior")
     row["heldout_error_tuned"] = heldout_error(artefacts.get("validation"), "predicted_tuned")
     return row | named_effect_scores(truth.get("effects") or [], diag)
@@ -341,6 +346,8 @@ def bank_metrics(summary: pd.DataFrame) -> pd.DataFrame:
         add("omega_median_abs_rel_error", d, float(rel.median()) if len(rel) else np.nan, len(rel))
         alone = ok[f"omega_{d}_measured_rel_error"].dropna().abs()  # the admittance fit without the loading prior
         add("measured_omega_within_2pct", d, *_rate(alone <= 0.02))
+        stage = reported[f"omega_{d}_stage_rel_error"].abs()  # identify's, before diagnose's sea refit
+        add("identify_stage_omega_within_2pct", d, *_rate(stage <= 0.02))
         add("omega_truth_in_ci", d, *_rate(reported[f"omega_{d}_truth_in_ci"]))
         add("model_mode_max_abs_rel_error", d, float(ok[f"omega_{d}_model_rel_error"].abs().max()), len(ok),
             0.005, higher_better=False)
