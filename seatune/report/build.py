@@ -333,7 +333,8 @@ def mode_shape_words(modes, which: str) -> dict[str, str]:
 
 
 def diagnosed_sea_modes_table(nf_diagnosed: pd.DataFrame | None, before: pd.DataFrame) -> str:
-    """identify's ω_n again in the sea diagnose refitted through the effects it named, beside the ones above."""
+    """identify's ω_n again in the sea diagnose refitted through the effects it named, beside identify's own (both
+    with the loading prior where identify has it)."""
     if nf_diagnosed is None or nf_diagnosed.empty:
         return ""
     after = primary_natural_frequencies(nf_diagnosed)
@@ -387,7 +388,7 @@ def natural_frequencies_section(inp: ReportInputs, tuned: dict[str, float] | Non
                         caption="Natural frequencies with the loading prior: each measured ω_n combined with the "
                                 "coupled modes over the vessel's loading priors (identify.known held, with "
                                 "identify.mode_model_rel_std): the best estimate before tuning", digits=4)
-    body += diagnosed_sea_modes_table(inp.natural_frequencies_diagnosed, best)
+    body += diagnosed_sea_modes_table(inp.natural_frequencies_diagnosed, primary_natural_frequencies(nf))
     derived = derived_values(nf)
     if derived:
         d = pd.DataFrame([{"derived from ω_n": label, "value": v, "std": s, "unit": u}
