@@ -357,6 +357,7 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     from seatune.diagnosis.residuals import describe
     from seatune.io.parquet import write_table
     from seatune.io.rundir import fingerprint, is_fresh
+    from seatune.pipeline.identify import DIAGNOSED_NF_FILE
 
     settings = run.spec.diagnose
     src = [run.artefact(n) for n in ("windows.parquet", "window_stats.parquet", "window_spectra.parquet",
@@ -411,8 +412,6 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
         identify_in_diagnosed_sea(run, vessel, meta, echo)
     else:  # no vessel effect named: the sea stage's model stands
         run.artefact(DIAGNOSED_SEA_FILE).unlink(missing_ok=True)
-        from seatune.pipeline.identify import DIAGNOSED_NF_FILE
-
         run.artefact(DIAGNOSED_NF_FILE).unlink(missing_ok=True)
     table = diagnosis_table(diag, effects, alternated, rounds, withdrawn)
     write_table(residual_table(data, diag), outs[1], RESIDUAL_UNITS, meta)

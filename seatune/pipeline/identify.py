@@ -27,6 +27,12 @@ RAO_UNITS = {"scope": "", "window_id": "", "channel": "", "omega": "rad/s", "rao
              "ci_low": RAO_PER_ROW, "ci_high": RAO_PER_ROW, "model_prior": RAO_PER_ROW,
              "low_confidence": "", "reason": "", "beta_deg": "deg", "sector_deg": "deg", "hs": "m",
              "hs_bin_m": "m", "n_windows": "", "wave_source": ""}
+NF_UNITS = {"dof": "", "method": "", "window_id": "", "omega_n": "rad/s", "ci_low": "rad/s", "ci_high": "rad/s",
+            "zeta": "dimensionless", "model_prior": "rad/s", "derived": "",
+            "derived_value": "per row; the unit named in `derived`",
+            "derived_std": "per row; the unit named in `derived`",
+            "reason": "text", "estimator_bias": "dimensionless", "tp_std": "rad/s", "sea_std": "rad/s",
+            "loading_std": "rad/s", "prior_std": "rad/s"}
 DIAGNOSED_NF_FILE = "natural_frequencies_diagnosed.parquet"  # diagnose's: ω_n in the sea refitted through its effects
 
 
@@ -39,12 +45,6 @@ def final_natural_frequencies(run_dir):
     return diagnosed if diagnosed.is_file() else Path(run_dir) / "natural_frequencies.parquet"
 
 
-NF_UNITS = {"dof": "", "method": "", "window_id": "", "omega_n": "rad/s", "ci_low": "rad/s", "ci_high": "rad/s",
-            "zeta": "dimensionless", "model_prior": "rad/s", "derived": "",
-            "derived_value": "per row; the unit named in `derived`",
-            "derived_std": "per row; the unit named in `derived`",
-            "reason": "text", "estimator_bias": "dimensionless", "tp_std": "rad/s", "sea_std": "rad/s",
-            "loading_std": "rad/s", "prior_std": "rad/s"}
 DOF_INDEX = {"Heave": 2, "Roll": 3, "Pitch": 4}
 
 
