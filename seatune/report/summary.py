@@ -81,8 +81,8 @@ def key_figures(inp: ReportInputs) -> tuple[dict, dict[str, str]]:
     units = {k: "" for k in row} | {"hours_logged": "h", "accepted_minutes": "min"}
     best = primary_natural_frequencies(inp.natural_frequencies)  # with the loading prior where identify has it
     measured = primary_natural_frequencies(inp.natural_frequencies, measured_only=True)
-    diagnosed = (primary_natural_frequencies(inp.natural_frequencies_diagnosed)
-                 if inp.natural_frequencies_diagnosed is not None and len(inp.natural_frequencies_diagnosed) else None)
+    nf_final = inp.natural_frequencies_diagnosed  # in the sea refitted through the named effects, if diagnose wrote it
+    final = primary_natural_frequencies(nf_final) if nf_final is not None and len(nf_final) else best
     for dof in DOFS:
         key = f"omega_n_{dof.lower()}"
         r = best.loc[dof] if dof in best.index else None
@@ -93,7 +93,6 @@ def key_figures(inp: ReportInputs) -> tuple[dict, dict[str, str]]:
         units[key + "_measured"] = "rad/s"
         row[key + "_tuned"] = float((inp.tuned_omega_n or {}).get(dof, np.nan))
         units[key + "_tuned"] = "rad/s"
-        final = best if diagnosed is None else diagnosed  # in the sea refitted through the named effects
         row[key + "_final"] = float(final.loc[dof, "omega_n"]) if dof in final.index else np.nan
         units[key + "_final"] = "rad/s"
     derived = derived_values(inp.natural_frequencies)
