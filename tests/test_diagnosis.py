@@ -294,6 +294,28 @@ def test_refine_refits_a_named_effect_in_another_sea_from_where_it_stood(sample_
     assert refined.nll_train < first.nll_train  # (each on its own data)
 
 
+def test_gaps_with_the_sea_refitted_compare_each_model_in_its_own_sea(sample_model):
+    """The final model's held-out gap with the sea refitted through it, against the tuned model in the sea it was
+    tuned in: spectra of a planted lever arm in the right sea (no noise); the model without it in a tilted sea misfits,
+    the model with it in the right sea fits exactly, in the bins the arm moves."""
+    import copy
+
+    from seatune.diagnosis.select import Fit
+
+    right, truth_phi = trials.noise_free_set(sample_model, 5)
+    effect, planted = EFFECT["imu_lever_arm"], {"dx": 6.0, "dy": -3.0, "dz": 4.0}
+    right.measured = Diagnoser(sample_model, trials.PARAMETERS, right, truth_phi).model.spectra(truth_phi, effect,
+                                                                                              planted)
+    tilted = copy.copy(right)
+    tilted.wave = right.wave * (right.omega_fine / right.omega_fine.mean())[None, :, None] ** 1.5
+    before = Diagnoser(sample_model, trials.PARAMETERS, tilted, truth_phi).residuals(truth_phi)
+    final = Fit(effect.name, planted, truth_phi, np.nan, np.nan, 3, True, effect_used=effect)
+    g = Diagnoser(sample_model, trials.PARAMETERS, right, truth_phi).gaps_with_sea(before, final)
+    assert g["gap_holdout_before"] > 0.1 and g["sigma_error_holdout_before"] > 0.01, g
+    assert g["gap_holdout_after"] == pytest.approx(0.0, abs=1e-6), g
+    assert g["sigma_error_holdout_after"] == pytest.approx(0.0, abs=1e-9), g
+
+
 def test_the_fit_without_effect_is_restarted_until_it_stops_gaining(sample_model):
     """Every candidate's gain is counted from the fit without effect, and L-BFGS-B on a finite-difference gradient can
     stop short (blind bank, osv_clean_016: 3.98 nats, named as a quadratic roll damping). A fit stopped 1.5σ off the
@@ -455,7 +477,7 @@ def run_cli(*args):
 def test_diagnose_writes_the_design_tables(diagnosed):
     import pyarrow.parquet as pq
 
-    from seatune.pipeline.diagnose import DIAGNOSIS_UNITS, RESIDUAL_UNITS
+    from seatune.pipeline.diagnose import DIAGNOSIS_UNITS, RESIDUAL_UNITS, WITH_SEA_COLUMNS
 
     tmp, _, stdout = diagnosed
     out = tmp / "run"
@@ -485,6 +507,7 @@ def test_diagnose_writes_the_design_tables(diagnosed):
     assert not (out / "natural_frequencies_diagnosed.parquet").exists()  # only with a vessel effect named
     # no vessel effect named: nothing to alternate with the sea
     assert (d["fitted_with_sea"] == "").all() and (d["alternation_rounds"] == 0).all()
+    assert d[list(WITH_SEA_COLUMNS)].isna().all().all()
     again = run_cli("diagnose", tmp / "run.yaml")
     assert "diagnose: up to date (skipped)" in again.stdout
 
@@ -576,6 +599,9 @@ def test_full_simulated_trial_with_a_tank_is_diagnosed(tmp_path):
     assert final["alternation_rounds"] >= 1 and "alternated with the sea" in res.stdout
     assert json.loads(final["fitted_with_sea"]) == pytest.approx({k: entry[k] for k in ("omega_t", "zeta_t", "mu")},
                                                                   rel=1e-5)
+    # each model with its own sea: the tuned one in the sea stage's, the final one in the sea refitted through it
+    assert final["gap_after_holdout_with_sea"] < final["gap_before_holdout_with_sea"]
+    assert "with the sea refitted through the effects" in res.stdout.splitlines()[-1]
     assert run_cli("vessel", "info", augmented).returncode == 0
     # identify once more in the sea refitted through the tank: every DOF with a value or a reason
     from seatune.identification.natural_frequency import primary_natural_frequencies

@@ -113,7 +113,13 @@ def test_a_named_effects_parameters_and_gap_by_hand():
     assert row["moonpool_omega_p_fitted"] == 1.02 and row["moonpool_omega_p_within"]  # 2 % < 3 %
     assert row["moonpool_area_within"] is False  # 27.5 % > 25 %
     assert row["imu_lever_arm_dx_within"] and row["imu_lever_arm_dy_within"] is False and row["imu_lever_arm_dz_within"]
-    assert row["heldout_gap_shrink"] == pytest.approx(0.75)
+    assert row["heldout_gap_shrink"] == pytest.approx(0.75)  # no sea refitted through the effects: the common sea's
+    # with the sea refitted through the final model (diagnose's alternation), its shrink; the selection's kept apart
+    refitted = score_trial(truth, _artefacts(set(), 8.0, 0.1) | {"diagnosis": diag.assign(
+        gap_before_holdout_with_sea=[np.nan, np.nan, 0.5], gap_after_holdout_with_sea=[np.nan, np.nan, 0.05])},
+                           {"roll": 0.5})
+    assert refitted["heldout_gap_shrink"] == pytest.approx(0.9)
+    assert refitted["heldout_gap_shrink_common_sea"] == pytest.approx(0.75)
     assert row["anti_roll_tank_omega_t_within"] is None and np.isnan(row["quadratic_roll_damping_q_fitted"])
     wrong = score_trial(_truth("e", "anti_roll_tank", []) | {"effects": [{"kind": "anti_roll_tank", "omega_t": 0.5}]},
                         _artefacts(set(), 8.0, 0.1) | {"diagnosis": diag}, {"roll": 0.5})
@@ -123,6 +129,7 @@ def test_a_named_effects_parameters_and_gap_by_hand():
     assert m.loc[("effect_parameter_within_tolerance", "imu_lever_arm.dy"), "value"] == 0.0
     assert m.loc[("effect_parameter_within_tolerance", "anti_roll_tank.omega_t"), "n"] == 0
     assert m.loc[("heldout_gap_halved", "correctly named"), "value"] == 1.0
+    assert m.loc[("heldout_gap_halved", "correctly named, common sea"), "value"] == 1.0
     assert m.loc[("heldout_gap_halved", "correctly named"), "n"] == 1
 
 

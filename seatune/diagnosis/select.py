@@ -560,6 +560,18 @@ class Diagnoser:
         score = _score(rep_base.nll_train - f.nll_train, rep_base.nll_holdout - f.nll_holdout, penalty)
         return score, (rep_base, bands)
 
+    def gaps_with_sea(self, before: tuple, fit: Fit) -> dict:
+        """`fit`'s gaps in this Diagnoser's sea (each window's sea refitted through `fit`'s effects) against the tuned
+        model's `before` = (r, sd, pred) in the sea it was tuned in, in the bins the effects move here: each model
+        with its own sea, the effects and loading from the training windows only. gap_/sigma_error_ {train,
+        holdout} _ {before, after}."""
+        r1, sd1, p1 = self.residuals(fit.phi, fit.effect_used, fit.params)
+        plain = self.model.spectra(fit.phi)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            moved = self.data.mask & (np.abs(np.log(p1 / plain)) >= AFFECTED_CHANGE)
+        b, a = self._gaps(*before, moved, moved), self._gaps(r1, sd1, p1, moved, moved)
+        return {**{f"{k}_before": v for k, v in b.items()}, **{f"{k}_after": v for k, v in a.items()}}
+
     def _gaps(self, r, sd, pred, select, fallback) -> dict:
         """Gap and σ error per role in the `select` bins; a role none of whose bins an effect moves is scored in
         the `fallback` ones (the located misfit), not left without a figure."""

@@ -45,7 +45,12 @@ DIAGNOSIS_UNITS = {
     "fitted_with_sea": "text; JSON, the final step's effects after alternating with the sea, units in fitted_units",
     "alternation_rounds": "",
     "withdrawn": "",
+    **{f"{k}_{when}_holdout_with_sea": "dimensionless; the last selected row: the tuned model in the sea stage's sea "
+                                        "(before), the final model in the sea refitted through it (after), in the bins "
+                                        "its effects move; NaN elsewhere"
+       for k in ("gap", "sigma_error") for when in ("before", "after")},
 }
+WITH_SEA_COLUMNS = tuple(c for c in DIAGNOSIS_UNITS if c.endswith("_with_sea") and c != "fitted_with_sea")
 RESIDUAL_UNITS = {"window_id": "", "role": "", "channel": "", "omega": "rad/s", "log_ratio_before": "dimensionless",
                   "log_ratio_after": "dimensionless", "z_before": "dimensionless", "z_after": "dimensionless",
                   "used": ""}
@@ -155,12 +160,13 @@ def null_sea(calibration):
     return NullSea(**calibration.model_dump())
 
 
-def diagnosis_table(diag, effects, alternated=None, rounds: int = 0, withdrawn=()) -> pd.DataFrame:
+def diagnosis_table(diag, effects, alternated=None, rounds: int = 0, withdrawn=(), with_sea=None) -> pd.DataFrame:
     """One row per candidate and step of the greedy selection (DESIGN §5): the step's gains are over the effects
     named before it (`given`), the joint ones over the model without effect; gaps are the tuned model's against
     the model with the row's effects. `alternated`: the final model's Fit after `rounds` of alternation with the
     sea, its parameters on the last selected row (`fitted_with_sea`). `withdrawn`: sea-side corrections the re-test
-    in the alternated sea dropped (their rows `withdrawn`, no longer `selected`)."""
+    in the alternated sea dropped (their rows `withdrawn`, no longer `selected`). `with_sea`: the final model's gaps
+    with the sea refitted through it (`Diagnoser.gaps_with_sea`), on the last selected row."""
     from seatune.diagnosis.residuals import describe
 
     by_name = {e.name: e for e in effects}
@@ -191,7 +197,8 @@ def diagnosis_table(diag, effects, alternated=None, rounds: int = 0, withdrawn=(
                for when in ("before", "after") for role in ("train", "holdout")},
             "bands_before": before,
             "bands_after": "; ".join(describe(b) for b in diag.bands_after[f.effect]) or "none left",
-            "fitted_with_sea": "", "alternation_rounds": 0, "withdrawn": False})
+            "fitted_with_sea": "", "alternation_rounds": 0, "withdrawn": False,
+            **dict.fromkeys(WITH_SEA_COLUMNS, np.nan)})
     table = pd.DataFrame(out, columns=list(DIAGNOSIS_UNITS))
     gone = table["selected"] & table["effect"].isin(withdrawn)  # a sea-side correction the alternated sea took over
     table.loc[gone, "selected"], table.loc[gone, "withdrawn"] = False, True
@@ -201,6 +208,10 @@ def diagnosis_table(diag, effects, alternated=None, rounds: int = 0, withdrawn=(
         table.loc[last, "fitted_with_sea"] = json.dumps({k.removeprefix(own): round(v, 6)
                                                          for k, v in alternated.params.items()})
         table.loc[last, "alternation_rounds"] = rounds
+    if len(chosen) and with_sea is not None:
+        for column in WITH_SEA_COLUMNS:
+            k, when = column.removesuffix("_holdout_with_sea").rsplit("_", 1)
+            table.loc[chosen[-1], column] = with_sea[f"{k}_holdout_{when}"]
     return table
 
 
@@ -390,7 +401,7 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     diag = diagnoser.run(effects, max_named=settings.max_effects)
     train = data.roles == "train"
     meta = {"fingerprint": fp}
-    alternated, rounds, withdrawn = None, 0, []
+    alternated, rounds, withdrawn, with_sea = None, 0, [], None
     alone = (diagnoser.without_sea_side(diag.winner)
              if run.spec.sea.estimate and settings.alternation_rounds and diag.winner is not None else None)
     if alone is not None:  # the vessel effects alternate alone; the sea-side correction is tested again after
@@ -409,11 +420,14 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
                 alternated, withdrawn = retest_sea_side(run, vessel, diagnoser, channels,
                                                         replace(diag, winner=alternated), withdrawn, augmented, echo)
                 diag = replace(diag, winner=alternated)
+        refitted = window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE)
+        with_sea = run_diagnoser(run, vessel, parameters, refitted, phi_start).gaps_with_sea(
+            diagnoser.residuals(diag.phi_before), alternated if alternated is not None else diag.winner)
         identify_in_diagnosed_sea(run, vessel, meta, echo)
     else:  # no vessel effect named: the sea stage's model stands
         run.artefact(DIAGNOSED_SEA_FILE).unlink(missing_ok=True)
         run.artefact(DIAGNOSED_NF_FILE).unlink(missing_ok=True)
-    table = diagnosis_table(diag, effects, alternated, rounds, withdrawn)
+    table = diagnosis_table(diag, effects, alternated, rounds, withdrawn, with_sea)
     write_table(residual_table(data, diag), outs[1], RESIDUAL_UNITS, meta)
     write_table(table, outs[0], DIAGNOSIS_UNITS, meta)
     chosen = table[table["selected"]]
@@ -430,4 +444,6 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
             "gap_after": float(row["gap_after_holdout"]),
             "sigma_before": float(row["sigma_error_before_holdout"]),
             "sigma_after": float(row["sigma_error_after_holdout"]),
+            "with_sea": None if with_sea is None else {k: float(row[f"{k}_holdout_with_sea"]) for k in (
+                "gap_before", "gap_after", "sigma_error_before", "sigma_error_after")},
             "augmented": str(augmented) if diag.winner is not None else None}

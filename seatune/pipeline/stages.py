@@ -73,6 +73,10 @@ def _diagnose_line(s: dict, seconds: float) -> str:
     where = "; ".join(s["bands_before"]) or "no band of systematic misfit"
     gap = (f"held-out gap {s['gap_before']:.3f} → {s['gap_after']:.3f}, σ error {100 * s['sigma_before']:.1f} % → "
            f"{100 * s['sigma_after']:.1f} %")
+    if s.get("with_sea"):
+        w = s["with_sea"]
+        gap += (f" (with the sea refitted through the effects: {w['gap_before']:.3f} → {w['gap_after']:.3f}, "
+                f"{100 * w['sigma_error_before']:.1f} % → {100 * w['sigma_error_after']:.1f} %)")
     if s["named"]:
         steps = []
         for step in s["steps"]:

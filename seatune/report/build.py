@@ -562,6 +562,12 @@ def diagnosis_section(inp: ReportInputs) -> str | None:
             verdict += (f" Alternated with the sea refitted through {'it' if len(chosen) == 1 else 'them'} "
                         f"({rounds} round{'s' if rounds > 1 else ''}): "
                         f"{H.esc(own_parameters_text(json.loads(row['fitted_with_sea'])))}, the values written.")
+        if np.isfinite(row.get("gap_after_holdout_with_sea", np.nan)):  # each model with its own sea
+            verdict += (" With each window's sea refitted through the final model, against the tuned model in the "
+                        f"sea stage's sea: held-out gap {row['gap_before_holdout_with_sea']:.3f} → "
+                        f"{row['gap_after_holdout_with_sea']:.3f}, σ error "
+                        f"{100 * row['sigma_error_before_holdout_with_sea']:.1f} % → "
+                        f"{100 * row['sigma_error_after_holdout_with_sea']:.1f} %.")
     elif row["bands_before"] != "no band of systematic misfit":
         verdict = "<b>No known effect explains the misfit</b>; the unexplained bands are listed below."
     else:

@@ -135,12 +135,14 @@ def score_trial(truth: dict, artefacts: dict[str, pd.DataFrame | None], model_mo
 def named_effect_scores(true_effects: list[dict], diag: pd.DataFrame | None) -> dict:
     """Issue 17's figures of a trial whose effects were named: each correctly named effect's fitted parameters
     against the truth (as the last selected step refitted them; a parameter of an effect named earlier is
-    `effect.parameter` there), and the held-out gap of that step before and after (its shrink)."""
+    `effect.parameter` there), and the held-out gap of that step before and after (its shrink): the tuned model in
+    the sea stage's sea against the final model in the sea refitted through it where diagnose refitted one, and
+    (`_common_sea`) both in the sea stage's sea as the selection scored them."""
     import json
 
     out = {f"{e}_{p}_{k}": (None if k == "within" else np.nan)
            for e, params in EFFECT_TOLERANCE.items() for p in params for k in ("truth", "fitted", "within")}
-    out["heldout_gap_shrink"] = np.nan
+    out["heldout_gap_shrink"] = out["heldout_gap_shrink_common_sea"] = np.nan
     if diag is None or "fitted" not in diag or not diag["selected"].astype(bool).any():
         return out
     chosen = diag[diag["selected"].astype(bool) & diag["effect"].isin(VESSEL_EFFECTS)]
@@ -163,7 +165,10 @@ def named_effect_scores(true_effects: list[dict], diag: pd.DataFrame | None) -> 
                     f"{kind}_{p}_within": bool(abs(value - t) <= tol * (abs(t) if how == "rel" else 1.0))
                     if np.isfinite(value) else None}
     if right and last["gap_before_holdout"] > 0:
-        out["heldout_gap_shrink"] = float(1.0 - last["gap_after_holdout"] / last["gap_before_holdout"])
+        out["heldout_gap_shrink_common_sea"] = float(1.0 - last["gap_after_holdout"] / last["gap_before_holdout"])
+        before, after = last.get("gap_before_holdout_with_sea", np.nan), last.get("gap_after_holdout_with_sea", np.nan)
+        out["heldout_gap_shrink"] = (float(1.0 - after / before) if before > 0 and np.isfinite(after)
+                                     else out["heldout_gap_shrink_common_sea"])
     return out
 
 
@@ -271,7 +276,7 @@ def summary_units(columns) -> dict[str, str]:
     for c in columns:
         if c in effect_columns:
             units[c] = effect_columns[c]
-        elif c == "heldout_gap_shrink":
+        elif c.startswith("heldout_gap_shrink"):
             units[c] = "dimensionless"
         elif c.startswith("omega_") and c.endswith(("_truth", "_estimate", "_model_at_truth")):
             units[c] = "rad/s"
@@ -365,6 +370,8 @@ def bank_metrics(summary: pd.DataFrame) -> pd.DataFrame:
         add("heldout_gap_halved", "correctly named", *_rate(shrink >= 0.5), TARGETS["heldout_gap_halved"])
         add("heldout_gap_median_shrink", "correctly named", float(shrink.median()) if len(shrink) else np.nan,
             len(shrink))
+        common = ok["heldout_gap_shrink_common_sea"].dropna()  # the selection's evidence, both in the sea stage's sea
+        add("heldout_gap_halved", "correctly named, common sea", *_rate(common >= 0.5))
     for col in ("heldout_error_prior", "heldout_error_tuned"):
         v = ok[col].dropna()
         add(f"median_{col}", "all", float(v.median()) if len(v) else np.nan, len(v))
