@@ -316,6 +316,35 @@ def test_gaps_with_the_sea_refitted_compare_each_model_in_its_own_sea(sample_mod
     assert g["sigma_error_holdout_after"] == pytest.approx(0.0, abs=1e-9), g
 
 
+def test_a_mode_a_named_effect_moves_is_the_hulls_mode_in_the_model_with_its_interval(sample_model):
+    """A named tank moves the roll peak off the bare mode: the final roll ω_n is the hull's coupled mode (DESIGN §6)
+    at the loading diagnose refitted, its interval from that loading's std by central differences, which a Monte
+    Carlo over the same std matches; it comes before the measured value, and `measured_only` leaves it out."""
+    from seatune.identification.natural_frequency import primary_natural_frequencies
+    from seatune.physics.modes import natural_frequencies
+    from seatune.pipeline.identify import NF_UNITS, effect_mode_rows
+    from seatune.tuning.interface import Parameter
+
+    belief = [Parameter("gmt_fs", 0.3, 0.03, 0.0, 0.8), Parameter("r44", 8.9, 0.15, 6.6, 10.2),
+              Parameter("xcg", -1.0, 0.5, -5.0, 3.0)]
+    phi = np.array([p.prior_mean for p in belief])
+    rows = effect_mode_rows(sample_model, belief, phi, {"Roll"}, "tank")
+    assert [(r["dof"], r["method"]) for r in rows] == [("Roll", "model_with_effects")]
+    roll = rows[0]
+    expected = natural_frequencies(sample_model.db, sample_model.loading(gmt_fs=0.3, r44=8.9, xcg=-1.0), (3,))[0, 0]
+    assert roll["omega_n"] == pytest.approx(expected, rel=1e-9)
+    draws = np.random.default_rng(1).normal(phi, [p.prior_std for p in belief], size=(2000, 3))
+    spread = natural_frequencies(sample_model.db, sample_model.loading(
+        gmt_fs=draws[:, 0], r44=draws[:, 1], xcg=draws[:, 2]), (3,))[:, 0].std()
+    assert roll["loading_std"] == pytest.approx(spread, rel=0.1)
+    assert roll["ci_high"] - roll["ci_low"] == pytest.approx(2 * 1.96 * roll["loading_std"], rel=1e-3)
+    measured = {"dof": "Roll", "window_id": "all", "derived": None, "omega_n": 0.5, "ci_low": 0.48, "ci_high": 0.52}
+    nat = pd.DataFrame([measured | {"method": "admittance_peak_sdof"}, measured | {"method": "posterior"}, roll],
+                       columns=list(NF_UNITS))
+    assert primary_natural_frequencies(nat).loc["Roll", "method"] == "model_with_effects"
+    assert primary_natural_frequencies(nat, measured_only=True).loc["Roll", "method"] == "admittance_peak_sdof"
+
+
 def test_the_fit_without_effect_is_restarted_until_it_stops_gaining(sample_model):
     """Every candidate's gain is counted from the fit without effect, and L-BFGS-B on a finite-difference gradient can
     stop short (blind bank, osv_clean_016: 3.98 nats, named as a quadratic roll damping). A fit stopped 1.5σ off the
@@ -609,6 +638,14 @@ def test_full_simulated_trial_with_a_tank_is_diagnosed(tmp_path):
     again = primary_natural_frequencies(pd.read_parquet(tmp_path / "run" / "natural_frequencies_diagnosed.parquet"))
     assert set(again.index) >= {"Heave", "Roll", "Pitch"}
     assert all(np.isfinite(r.omega_n) or r.reason for r in again.itertuples())
+    # the tank moves the roll peak: the final roll is the hull's mode in the model with the tank, near the truth's
+    from seatune.physics.modes import natural_frequencies
+    from seatune.pipeline.vessel import open_vessel
+
+    hull = open_vessel(ROOT / "configs/vessels/sample_osv.yaml")
+    true_roll = natural_frequencies(hull.db, hull.loading(**scen["truth_loading"]), (3,))[0, 0]
+    assert again.loc["Roll", "method"] == "model_with_effects"
+    assert again.loc["Roll", "omega_n"] == pytest.approx(true_roll, rel=0.02)
     assert "natural frequencies in the sea refitted through the named effects" in res.stdout
     # re-tune with the real backend on the augmented vessel: the loading moves towards the truth (A7's lesson)
     run.update(vessel=str(augmented), run_dir=str(tmp_path / "retuned"))

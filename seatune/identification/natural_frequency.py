@@ -734,12 +734,13 @@ def mode_posterior(model_omega: np.ndarray, measured: np.ndarray, measured_std: 
 
 def primary_natural_frequencies(nf: pd.DataFrame, measured_only: bool = False) -> pd.DataFrame:
     """One combined estimate per DOF of natural_frequencies.parquet (window 'all', not a derived row), indexed by
-    DOF: the posterior with the loading prior, else the admittance SDOF fit, else the response-spectrum peak; a
-    value before a reason it has none. `measured_only`: without the posterior (for what takes the loading prior
-    itself — tune, the derived loading parameters — and must not count it twice)."""
+    DOF: the hull's mode in the model with diagnose's named effects where one moves that DOF's peak, else the
+    posterior with the loading prior, else the admittance SDOF fit, else the response-spectrum peak; a value before
+    a reason it has none. `measured_only`: without the model's (for what takes the loading prior itself — tune, the
+    derived loading parameters — and must not count it twice)."""
     rows = nf[(nf["window_id"] == "all") & nf["derived"].isna()] if "derived" in nf else nf[nf["window_id"] == "all"]
     if measured_only:
-        rows = rows[rows["method"] != "posterior"]
-    rank = rows["method"].map({"posterior": 0, "admittance_peak_sdof": 1}).fillna(2)
+        rows = rows[~rows["method"].isin(("posterior", "model_with_effects"))]
+    rank = rows["method"].map({"model_with_effects": 0, "posterior": 1, "admittance_peak_sdof": 2}).fillna(3)
     rows = rows.assign(_pref=rank + 3 * rows["omega_n"].isna().astype(int))  # a value before a reason it has none
     return rows.sort_values("_pref", kind="stable").drop_duplicates("dof").drop(columns="_pref").set_index("dof")

@@ -263,17 +263,27 @@ def augmented_vessel_yaml(vessel, diag, path: Path) -> None:
 DIAGNOSED_SEA_FILE = "sea_states_diagnosed.parquet"  # the sea re-estimated with the named effects
 
 
-def identify_in_diagnosed_sea(run, vessel, meta: dict, echo=print) -> dict:
+def identify_in_diagnosed_sea(run, vessel, meta: dict, belief: list, named: list[str], echo=print) -> dict:
     """identify's natural frequencies once more, in the sea refitted through the named effects (DIAGNOSED_NF_FILE):
     the sea stage's fit had absorbed the effects, and identify had divided the responses by that sea. The model and
     its loading prior stay identify's (ω_n is the hull's coupled root, DESIGN §6); roll takes that sea too, as it
     was fitted through the refitted roll damping. On the blind bank (a vessel effect named in 25 of 62 trials):
-    pitch within 2 % 50 → 53 of 62, roll 47 → 48 of 58, heave 57 of 60 either way."""
-    from seatune.identification.natural_frequency import primary_natural_frequencies
+    pitch within 2 % 50 → 53 of 62, roll 47 → 48 of 58, heave 57 of 60 either way. A DOF whose peak a named effect
+    moves off the bare mode (a tank's roll, a moonpool's heave) gets the hull's mode in the model with the effects at
+    the loading refitted with them (`effect_mode_rows`; `belief`: that loading with its std, `named`: the effects),
+    the final value."""
+    from seatune.identification.natural_frequency import MODES_SHIFTED_BY, primary_natural_frequencies
     from seatune.io.parquet import write_table
-    from seatune.pipeline.identify import DIAGNOSED_NF_FILE, NF_UNITS, identified
+    from seatune.pipeline.identify import DIAGNOSED_NF_FILE, NF_UNITS, effect_mode_rows, identified
 
     _, nat, _, _ = identified(run, vessel, pd.read_parquet(run.artefact(DIAGNOSED_SEA_FILE)), None)
+    moving = [n for n in named if n in MODES_SHIFTED_BY]
+    if moving:
+        note = (f"the hull's mode in the model with {' and '.join(moving)}, at the loading diagnose refitted with "
+                f"{'it' if len(moving) == 1 else 'them'}: the measured peak is the coupled system's")
+        rows = effect_mode_rows(vessel, belief, np.array([p.prior_mean for p in belief]),
+                                {MODES_SHIFTED_BY[n] for n in moving}, note, run.spec.identify.confidence)
+        nat = pd.concat([nat, pd.DataFrame(rows, columns=list(NF_UNITS))], ignore_index=True)
     write_table(nat, run.artefact(DIAGNOSED_NF_FILE), NF_UNITS, meta)
     best = primary_natural_frequencies(nat)
     found = {str(d): float(r["omega_n"]) for d, r in best.iterrows() if np.isfinite(r["omega_n"])}
@@ -282,13 +292,10 @@ def identify_in_diagnosed_sea(run, vessel, meta: dict, echo=print) -> dict:
     return found
 
 
-def sea_with_effects(run, vessel, parameters, phi, augmented: Path, echo=print) -> dict:
-    """Each window's sea fitted again through the augmented vessel (the named effects, the loading refitted with
-    them): an effect the sea stage's model lacked (an IMU lever arm's specific forces, a tank's roll) had been
-    absorbed by the sea. The loading belief: the refitted values with the tune's posterior std (the prior's for
-    the parameters diagnose adds)."""
-    from seatune.pipeline.sea import posterior_parameters, sea_stage, window_hs
-    from seatune.pipeline.vessel import open_run_vessel
+def loading_belief(run, vessel, parameters, phi) -> list:
+    """The loading diagnose refitted, `phi`, as Parameters: the refitted values (inside the bounds) with the tune's
+    posterior std (the prior's for the parameters diagnose adds)."""
+    from seatune.pipeline.sea import posterior_parameters
 
     post = {p.name: p.prior_std for p in posterior_parameters(run, vessel)}
     belief = []
@@ -296,7 +303,19 @@ def sea_with_effects(run, vessel, parameters, phi, augmented: Path, echo=print) 
         room = 1e-6 * (p.upper - p.lower) if np.isfinite(p.upper - p.lower) else 1e-9
         belief.append(replace(p, prior_mean=float(np.clip(value, p.lower + room, p.upper - room)),
                               prior_std=post.get(p.name, p.prior_std)))
-    summary = sea_stage(run, open_run_vessel(run, augmented), echo=echo, force=True, parameters=belief,
+    return belief
+
+
+def sea_with_effects(run, vessel, parameters, phi, augmented: Path, echo=print) -> dict:
+    """Each window's sea fitted again through the augmented vessel (the named effects, the loading refitted with
+    them): an effect the sea stage's model lacked (an IMU lever arm's specific forces, a tank's roll) had been
+    absorbed by the sea. The loading belief: the refitted values with the tune's posterior std (the prior's for
+    the parameters diagnose adds)."""
+    from seatune.pipeline.sea import sea_stage, window_hs
+    from seatune.pipeline.vessel import open_run_vessel
+
+    summary = sea_stage(run, open_run_vessel(run, augmented), echo=echo, force=True,
+                        parameters=loading_belief(run, vessel, parameters, phi),
                         artefact=DIAGNOSED_SEA_FILE, vessel_path=augmented)
     hs0, hs1 = (window_hs(pd.read_parquet(run.artefact(n))) for n in ("sea_states.parquet", DIAGNOSED_SEA_FILE))
     change = (hs1.reindex(hs0.index) / hs0 - 1).dropna()
@@ -420,10 +439,12 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
                 alternated, withdrawn = retest_sea_side(run, vessel, diagnoser, channels,
                                                         replace(diag, winner=alternated), withdrawn, augmented, echo)
                 diag = replace(diag, winner=alternated)
+        final = alternated if alternated is not None else diag.winner
         refitted = window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE)
         with_sea = run_diagnoser(run, vessel, parameters, refitted, phi_start).gaps_with_sea(
-            diagnoser.residuals(diag.phi_before), alternated if alternated is not None else diag.winner)
-        identify_in_diagnosed_sea(run, vessel, meta, echo)
+            diagnoser.residuals(diag.phi_before), final)
+        identify_in_diagnosed_sea(run, vessel, meta, loading_belief(run, vessel, parameters, final.phi),
+                                  [e.name for e, _ in diag.named_effects], echo)
     else:  # no vessel effect named: the sea stage's model stands
         run.artefact(DIAGNOSED_SEA_FILE).unlink(missing_ok=True)
         run.artefact(DIAGNOSED_NF_FILE).unlink(missing_ok=True)

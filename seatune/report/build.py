@@ -332,6 +332,11 @@ def mode_shape_words(modes, which: str) -> dict[str, str]:
     }
 
 
+MODE_SOURCES = {"posterior": "measured, with the loading prior",
+                "model_with_effects": "the hull's mode in the model with the named effect (its peak is the coupled "
+                                      "system's)"}
+
+
 def diagnosed_sea_modes_table(nf_diagnosed: pd.DataFrame | None, before: pd.DataFrame) -> str:
     """identify's ω_n again in the sea diagnose refitted through the effects it named, beside identify's own (both
     with the loading prior where identify has it)."""
@@ -340,14 +345,16 @@ def diagnosed_sea_modes_table(nf_diagnosed: pd.DataFrame | None, before: pd.Data
     after = primary_natural_frequencies(nf_diagnosed)
     rows = [{"DOF": dof, "ω_n": after.loc[dof, "omega_n"],
              "95 % interval": f"{after.loc[dof, 'ci_low']:.3f} – {after.loc[dof, 'ci_high']:.3f}",
-             "in the sea stage's sea": before.loc[dof, "omega_n"] if dof in before.index else np.nan}
+             "in the sea stage's sea": before.loc[dof, "omega_n"] if dof in before.index else np.nan,
+             "from": MODE_SOURCES.get(after.loc[dof, "method"], after.loc[dof, "method"].replace("_", " "))}
             for dof in DOFS if dof in after.index]
     t = pd.DataFrame(rows)
-    t["change"] = t["ω_n"] / t["in the sea stage's sea"] - 1
+    t.insert(len(t.columns) - 1, "change", t["ω_n"] / t["in the sea stage's sea"] - 1)
     return H.table(t, {"ω_n": "rad/s", "95 % interval": "rad/s", "in the sea stage's sea": "rad/s", "change": "%"},
                    caption="The natural frequencies seatune delivers: identified once more in the sea refitted "
                            "through the vessel effects diagnose named (the sea stage's fit had absorbed them), with "
-                           "the loading prior", formats={"change": _pct}, digits=4)
+                           "the loading prior; where a named effect moves a mode's peak (a tank's roll, a moonpool's "
+                           "heave), the hull's mode in the model with it", formats={"change": _pct}, digits=4)
 
 
 def natural_frequencies_section(inp: ReportInputs, tuned: dict[str, float] | None) -> str:
