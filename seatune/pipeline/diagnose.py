@@ -276,8 +276,9 @@ def identify_in_diagnosed_sea(run, vessel, meta: dict, belief: list, named: list
     from seatune.io.parquet import write_table
     from seatune.pipeline.identify import DIAGNOSED_NF_FILE, NF_UNITS, effect_mode_rows, identified
 
-    _, nat, _, _ = identified(run, vessel, pd.read_parquet(run.artefact(DIAGNOSED_SEA_FILE)), None)
     moving = [n for n in named if n in MODES_SHIFTED_BY]
+    _, nat, _, _ = identified(run, vessel, pd.read_parquet(run.artefact(DIAGNOSED_SEA_FILE)), None,
+                              shifted={MODES_SHIFTED_BY[n] for n in moving})
     if moving:
         note = (f"the hull's mode in the model with {' and '.join(moving)}, at the loading diagnose refitted with "
                 f"{'it' if len(moving) == 1 else 'them'}: the measured peak is the coupled system's")

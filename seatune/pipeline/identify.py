@@ -820,9 +820,11 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
             "roll_omega_n": omega_n.get("Roll", float("nan")), "prior_roll_omega_n": prior_omega["Roll"]}
 
 
-def identified(run, model, sea: pd.DataFrame | None, sea_roll: pd.DataFrame | None):
+def identified(run, model, sea: pd.DataFrame | None, sea_roll: pd.DataFrame | None, shifted=()):
     """(raos, natural frequencies, per-window inputs, the prior's ω_n by DOF) of the run's accepted windows in the
-    sea `sea` (None: the hindcast), roll also in `sea_roll` (the sea fitted without the roll channels, or None)."""
+    sea `sea` (None: the hindcast), roll also in `sea_roll` (the sea fitted without the roll channels, or None).
+    `shifted`: DOFs whose peak an effect named by diagnose moves (kept out of the loading posterior, as the vessel
+    YAML's own effects' are)."""
     from seatune.io.hindcast_readers import read_hindcast
     from seatune.io.motion_table import MotionTable
     from seatune.physics.response import natural_frequencies
@@ -890,6 +892,7 @@ def identified(run, model, sea: pd.DataFrame | None, sea_roll: pd.DataFrame | No
     if settings.mode_posterior:
         from seatune.identification.natural_frequency import shifted_modes
 
-        rows += posterior_rows(model, rows, known, settings.known, settings, shifted_modes(model.spec.effects))
+        rows += posterior_rows(model, rows, known, settings.known, settings,
+                              shifted_modes(model.spec.effects) | set(shifted))
     rows += derived_parameters(model, known, rows)
     return raos, pd.DataFrame(rows, columns=list(NF_UNITS)), per_window, prior_omega
