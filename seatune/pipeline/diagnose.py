@@ -267,11 +267,11 @@ def identify_in_diagnosed_sea(run, vessel, meta: dict, belief: list, named: list
     """identify's natural frequencies once more, in the sea refitted through the named effects (DIAGNOSED_NF_FILE):
     the sea stage's fit had absorbed the effects, and identify had divided the responses by that sea. The model and
     its loading prior stay identify's (ω_n is the hull's coupled root, DESIGN §6); roll takes that sea too, as it
-    was fitted through the refitted roll damping. On the blind bank (a vessel effect named in 25 of 62 trials):
-    pitch within 2 % 50 → 53 of 62, roll 47 → 48 of 58, heave 57 of 60 either way. A DOF whose peak a named effect
-    moves off the bare mode (a tank's roll, a moonpool's heave) gets the hull's mode in the model with the effects at
-    the loading refitted with them (`effect_mode_rows`; `belief`: that loading with its std, `named`: the effects),
-    the final value."""
+    was fitted through the refitted roll damping. A DOF whose peak a named effect moves off the bare mode (a tank's
+    roll, a moonpool's heave) gets the hull's mode in the model with the effects at the loading refitted with them
+    (`effect_mode_rows`; `belief`: that loading with its std, `named`: the effects), the final value. On the blind
+    bank (a vessel effect named in 25 of 62 trials), within 2 % against identify's: heave 57 → 59 of 60, roll
+    47 → 50 of 58, pitch 50 → 53 of 62."""
     from seatune.identification.natural_frequency import MODES_SHIFTED_BY, primary_natural_frequencies
     from seatune.io.parquet import write_table
     from seatune.pipeline.identify import DIAGNOSED_NF_FILE, NF_UNITS, effect_mode_rows, identified
