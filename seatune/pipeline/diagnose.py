@@ -263,7 +263,7 @@ def augmented_vessel_yaml(vessel, diag, path: Path) -> None:
 DIAGNOSED_SEA_FILE = "sea_states_diagnosed.parquet"  # the sea re-estimated with the named effects
 
 
-def identify_in_diagnosed_sea(run, vessel, meta: dict, belief: list, named: list[str], echo=print) -> dict:
+def identify_in_diagnosed_sea(run, vessel, meta: dict, echo=print, belief=(), named=()) -> dict:
     """identify's natural frequencies once more, in the sea refitted through the named effects (DIAGNOSED_NF_FILE):
     the sea stage's fit had absorbed the effects, and identify had divided the responses by that sea. The model and
     its loading prior stay identify's (ω_n is the hull's coupled root, DESIGN §6); roll takes that sea too, as it
@@ -444,8 +444,8 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
         refitted = window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE)
         with_sea = run_diagnoser(run, vessel, parameters, refitted, phi_start).gaps_with_sea(
             diagnoser.residuals(diag.phi_before), final)
-        identify_in_diagnosed_sea(run, vessel, meta, loading_belief(run, vessel, parameters, final.phi),
-                                  [e.name for e, _ in diag.named_effects], echo)
+        identify_in_diagnosed_sea(run, vessel, meta, echo, belief=loading_belief(run, vessel, parameters, final.phi),
+                                  named=[e.name for e, _ in diag.named_effects])
     else:  # no vessel effect named: the sea stage's model stands
         run.artefact(DIAGNOSED_SEA_FILE).unlink(missing_ok=True)
         run.artefact(DIAGNOSED_NF_FILE).unlink(missing_ok=True)
