@@ -270,19 +270,26 @@ def test_compound_trial_names_both_effects_in_turn(sample_model):
     assert all(abs(fitted["imu_lever_arm"][k] - lever[k]) < 1.0 for k in ("dx", "dy", "dz")), fitted
 
 
-def test_refine_refits_a_named_effect_in_another_sea_from_where_it_stood(sample_model):
-    """One round of diagnose's alternation with the sea: a lever arm fitted in a sea whose spectrum is tilted
-    (ω^1.5, too much energy high) comes out wrong; refitted (`refine`, from that fit) in the right sea it is the
-    planted one again, and refined in the sea it was fitted in it stays where it was (expected spectra of the
-    model with the effect, no noise)."""
+def _lever_arm_in_the_right_and_a_tilted_sea(sample_model):
+    """Expected spectra (no noise) of a planted lever arm in 5 windows' sea, and that window set with its sea
+    tilted (ω^1.5, too much energy high): (right, tilted, loading, effect, planted parameters)."""
     import copy
 
     right, truth_phi = trials.noise_free_set(sample_model, 5)
     effect, planted = EFFECT["imu_lever_arm"], {"dx": 6.0, "dy": -3.0, "dz": 4.0}
     right.measured = Diagnoser(sample_model, trials.PARAMETERS, right, truth_phi).model.spectra(truth_phi, effect,
                                                                                               planted)
-    wrong = copy.copy(right)
-    wrong.wave = right.wave * (right.omega_fine / right.omega_fine.mean())[None, :, None] ** 1.5
+    tilted = copy.copy(right)
+    tilted.wave = right.wave * (right.omega_fine / right.omega_fine.mean())[None, :, None] ** 1.5
+    return right, tilted, truth_phi, effect, planted
+
+
+def test_refine_refits_a_named_effect_in_another_sea_from_where_it_stood(sample_model):
+    """One round of diagnose's alternation with the sea: a lever arm fitted in a sea whose spectrum is tilted
+    (ω^1.5, too much energy high) comes out wrong; refitted (`refine`, from that fit) in the right sea it is the
+    planted one again, and refined in the sea it was fitted in it stays where it was (expected spectra of the
+    model with the effect, no noise)."""
+    right, wrong, truth_phi, effect, planted = _lever_arm_in_the_right_and_a_tilted_sea(sample_model)
     in_wrong = Diagnoser(sample_model, trials.PARAMETERS, wrong, truth_phi)
     in_wrong.fit(None)
     first = in_wrong.fit(effect)
@@ -298,16 +305,9 @@ def test_gaps_with_the_sea_refitted_compare_each_model_in_its_own_sea(sample_mod
     """The final model's held-out gap with the sea refitted through it, against the tuned model in the sea it was
     tuned in: spectra of a planted lever arm in the right sea (no noise); the model without it in a tilted sea misfits,
     the model with it in the right sea fits exactly, in the bins the arm moves."""
-    import copy
-
     from seatune.diagnosis.select import Fit
 
-    right, truth_phi = trials.noise_free_set(sample_model, 5)
-    effect, planted = EFFECT["imu_lever_arm"], {"dx": 6.0, "dy": -3.0, "dz": 4.0}
-    right.measured = Diagnoser(sample_model, trials.PARAMETERS, right, truth_phi).model.spectra(truth_phi, effect,
-                                                                                              planted)
-    tilted = copy.copy(right)
-    tilted.wave = right.wave * (right.omega_fine / right.omega_fine.mean())[None, :, None] ** 1.5
+    right, tilted, truth_phi, effect, planted = _lever_arm_in_the_right_and_a_tilted_sea(sample_model)
     before = Diagnoser(sample_model, trials.PARAMETERS, tilted, truth_phi).residuals(truth_phi)
     final = Fit(effect.name, planted, truth_phi, np.nan, np.nan, 3, True, effect_used=effect)
     g = Diagnoser(sample_model, trials.PARAMETERS, right, truth_phi).gaps_with_sea(before, final)
