@@ -67,11 +67,12 @@ def noise_free_set(vessel, seed: int, n_windows: int = 6) -> tuple[WindowSet, np
 
 def trial(vessel, effect: str | tuple[str, ...] | None, seed: int, n_windows: int = 9, duration_s: float = 1800.0,
           hs_rel_std: float = 0.05, tp_std_s: float = 0.0, dir_std_deg: float = 0.0, null=None, effects=None,
-          max_named: int = 1, swell: dict | None = None):
+          max_named: int = 1, swell: dict | None = None, moonpool_position=MOONPOOL_AT):
     """(Diagnosis, truth φ) of one trial; every third window is held out. The model's sea state is the truth with
     hindcast errors: Hs × e^N(0, hs_rel_std), Tp + N(0, tp_std_s), β + N(0, dir_std_deg). `effect`: one name or
     a tuple of names (a compound trial). `swell` {"hs", "tp", "beta_deg"}: a swell in every window that the model's
-    sea lacks (the headings are all 0: one from D arrives at β = −D − 180°, DESIGN §3)."""
+    sea lacks (the headings are all 0: one from D arrives at β = −D − 180°, DESIGN §3). `moonpool_position`: where
+    diagnose is told the moonpool is (None: searched)."""
     rng = np.random.default_rng(seed)
     states = [{**s, "swell": swell} if swell else s for s in sea_states(rng, n_windows)]
     hidden = None if effect is None else [EFFECTS[e] for e in ((effect,) if isinstance(effect, str) else effect)]
@@ -84,4 +85,5 @@ def trial(vessel, effect: str | tuple[str, ...] | None, seed: int, n_windows: in
     diag = Diagnoser(vessel, PARAMETERS, data, start, hs_rel_std=hs_rel_std, tp_std_s=tp_std_s,
                      dir_std_deg=dir_std_deg, null=null)
     truth = np.array([TRUTH[p.name] for p in PARAMETERS])
-    return diag.run(library(effects, moonpool_position=MOONPOOL_AT), phi_before="refit", max_named=max_named), truth
+    named = diag.run(library(effects, moonpool_position=moonpool_position), phi_before="refit", max_named=max_named)
+    return named, truth

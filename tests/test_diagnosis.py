@@ -217,6 +217,18 @@ def test_hidden_effect_is_named_and_closes_the_gap(sample_model, effect):
     assert err[:, 1].mean() < err[:, 0].mean(), err  # A7: the missing effect had biased the loading
 
 
+def test_a_moonpool_whose_position_is_not_given_is_found_along_the_hull(sample_model):
+    """The time-domain trial's moonpool 20 m forward, diagnose not told where: its x is searched along the hull and
+    comes out within 3 m, ω_p within 3 % and the area within 25 % of the simulator's."""
+    d, _ = trials.trial(sample_model, "moonpool", 0, moonpool_position=None)
+    assert d.named == "moonpool", d.named
+    fitted = dict((e.name, p) for e, p in d.named_effects)["moonpool"]
+    truth = trials.EFFECTS["moonpool"]
+    assert abs(fitted["x"] - truth["x"]) < 3.0, fitted
+    assert fitted["omega_p"] == pytest.approx(truth["omega_p"], rel=0.03), fitted
+    assert fitted["area"] == pytest.approx(truth["area"], rel=0.25), fitted
+
+
 def test_clean_trials_name_no_effect(sample_model):
     results = _run_trials(sample_model, [None], [0, 1])
     assert [d.named for _, d, _ in results] == [None, None]

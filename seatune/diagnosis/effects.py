@@ -180,28 +180,34 @@ class Moonpool(Effect):
     signature = ("piston mode of a moonpool's water column: a narrow extra peak or notch in heave (and pitch / roll "
                  "by the moonpool's position) near its resonance, independent of roll")
 
-    def __init__(self, x: float = 0.0, y: float = 0.0, waterplane: float | None = None):
+    def __init__(self, x: float | None = 0.0, y: float = 0.0, waterplane: float | None = None,
+                 length: float | None = None):
         """`waterplane` [m²]: the hull's; the area is searched up to 8 % of it and widened up to 20 % (a
-        moonpool's opening is a few per cent of the waterplane). Without it, 1–400 m²."""
-        self.x, self.y = float(x), float(y)
+        moonpool's opening is a few per cent of the waterplane). Without it, 1–400 m². `x` None: searched along the
+        hull (± half its `length`, else ± 50 m)."""
+        self.x, self.y = float(x or 0.0), float(y)
         area = (EffectParameter("area", "m^2", 0.02 * waterplane, 1.0, 0.08 * waterplane,
                                 scan=(0.001 * waterplane, 0.02 * waterplane), limit_upper=0.2 * waterplane)
                 if waterplane else EffectParameter("area", "m^2", 40.0, 1.0, 400.0, scan=(2.0, 40.0)))
         self.parameters = (
             EffectParameter("omega_p", "rad/s", 1.0, 0.4, 2.0, scan=tuple(np.round(np.arange(0.5, 1.95, 0.1), 2))),
             EffectParameter("zeta_p", "", 0.1, 0.01, 0.5), area)
+        if x is None:
+            half = 0.5 * (length or 100.0)
+            self.parameters += (EffectParameter("x", "m", 0.0, -half, half, scan=(-0.5 * half, 0.0, 0.5 * half)),)
 
     def apply(self, parts, params, model):
         # column: mass on a relative spring c_p = ρ g S, excited by the wave pressure at the keel (Molin 2001 piston)
+        x = params.get("x", self.x)
         om = parts.omega
         c_p = parts.rho * parts.g * params["area"]
         m_p = c_p / params["omega_p"] ** 2
         c_t = c_p - 1j * om * 2.0 * params["zeta_p"] * np.sqrt(c_p * m_p)
         z = -(om**2) * m_p + c_t
         k = om**2 / parts.g
-        phase = np.exp(1j * k[:, None] * (self.x * np.cos(parts.beta) + self.y * np.sin(parts.beta))[None, :])
+        phase = np.exp(1j * k[:, None] * (x * np.cos(parts.beta) + self.y * np.sin(parts.beta))[None, :])
         f_q = c_t[:, None] * np.exp(-k * parts.draft)[:, None] * phase
-        attach_dof(parts, point_translation(np.array([self.x, self.y, 0.0]), 2), c_t, z, f_q)
+        attach_dof(parts, point_translation(np.array([x, self.y, 0.0]), 2), c_t, z, f_q)
 
 
 class AntiRollTank(Effect):
@@ -377,13 +383,15 @@ def _direction_weights(beta_deg: np.ndarray, grid_deg: np.ndarray) -> np.ndarray
     return _long_crested_weights(grid, np.argsort(grid), step, np.radians(np.asarray(beta_deg, float)), True) * step
 
 
-def library(names=None, moonpool_position=(0.0, 0.0), imu_sensor: str = "imu", vessel=None,
+def library(names=None, moonpool_position=None, imu_sensor: str = "imu", vessel=None,
             omega_roll: float | None = None) -> list[Effect]:
     """The candidate effects by name (all by default); with `vessel`, ranges from its hull (`hull_extent`, the
-    waterplane area), with `omega_roll` the tank's from the roll natural frequency."""
+    waterplane area), with `omega_roll` the tank's from the roll natural frequency. `moonpool_position` (x, y):
+    where a moonpool is known to be; None: its x is searched along the hull (y 0)."""
     extent = hull_extent(vessel) if vessel is not None else None
     waterplane = waterplane_area(vessel) if vessel is not None else None
-    every = {e.name: e for e in (QuadraticRollDamping(), Moonpool(*moonpool_position, waterplane),
+    x, y = moonpool_position if moonpool_position is not None else (None, 0.0)
+    every = {e.name: e for e in (QuadraticRollDamping(), Moonpool(x, y, waterplane, extent[0] if extent else None),
                                  AntiRollTank(omega_roll),
                                  ImuLeverArm(imu_sensor, extent), ImuMisalignment(imu_sensor), HsBias(),
                                  MissingSwell(), WaveSpreading())}

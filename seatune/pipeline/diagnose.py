@@ -251,7 +251,8 @@ def augmented_vessel_yaml(vessel, diag, path: Path) -> None:
     for effect, params in diag.named_effects:
         entry = {"kind": effect.name, **{k: float(v) for k, v in params.items()}}
         if effect.name == "moonpool":
-            entry.update(x=float(effect.x), y=float(effect.y))
+            entry.setdefault("x", float(effect.x))
+            entry["y"] = float(effect.y)
         entries.append(entry)
     data["effects"] = [*(data.get("effects") or []), *entries]
     data["description"] = (data.get("description", "")
