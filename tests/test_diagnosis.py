@@ -229,6 +229,28 @@ def test_a_moonpool_whose_position_is_not_given_is_found_along_the_hull(sample_m
     assert fitted["area"] == pytest.approx(truth["area"], rel=0.25), fitted
 
 
+def test_an_effect_the_held_out_windows_barely_excite_is_left_to_the_cross_validation(sample_model):
+    """A planted moonpool (ω_p 1.15 rad/s; expected spectra, no noise) in 9 windows whose three held out show nothing
+    between 0.6 and 1.7 rad/s (below the floor there): the held-out gain stays under HOLDOUT_MIN, and the 2-fold
+    cross-validation over all windows names it."""
+    import dataclasses
+
+    from seatune.diagnosis.select import HOLDOUT_MIN
+
+    data, truth_phi = trials.noise_free_set(sample_model, 5, n_windows=9)
+    planted = {k: trials.EFFECTS["moonpool"][k] for k in ("omega_p", "zeta_p", "area")}
+    data.measured = Diagnoser(sample_model, trials.PARAMETERS, data, truth_phi).model.spectra(
+        truth_phi, EFFECT["moonpool"], planted)
+    mask = data.mask.copy()
+    mask[np.ix_(data.roles == "holdout", np.ones(mask.shape[1], bool), (data.omega >= 0.6) & (data.omega <= 1.7))] = 0
+    d = Diagnoser(sample_model, trials.PARAMETERS, dataclasses.replace(data, mask=mask), truth_phi,
+                  hs_rel_std=0.05).run(library(["moonpool", "imu_lever_arm"], moonpool_position=trials.MOONPOOL_AT),
+                                       phi_before="refit")
+    row = next(r for r in d.rows if r["added"] == "moonpool")
+    assert 0.0 <= row["gain_holdout"] < HOLDOUT_MIN < row["gain_train"], row
+    assert d.named == "moonpool" and row["cross_fold_gain"] > HOLDOUT_MIN, row
+
+
 def test_clean_trials_name_no_effect(sample_model):
     results = _run_trials(sample_model, [None], [0, 1])
     assert [d.named for _, d, _ in results] == [None, None]
