@@ -308,7 +308,7 @@ class DiagnoseSettings(Strict):
     omega_min: PositiveFloat = 0.25  # rad/s; bins below (and above each channel's filter cutoff) are not analysed
     omega_max: PositiveFloat = 2.0  # rad/s
     relative_floor: Annotated[float, Field(gt=0, lt=1)] = 0.03  # bins below this × the channel's peak: noise
-    moonpool_position: tuple[float, float] | None = None  # [x, y] m of a suspected moonpool, body frame
+    moonpool_position: tuple[float, float] | None = None  # [x, y] m of a suspected moonpool, body frame; None: x fitted
     # vessel effects named in turn by greedy forward selection (name, add, refit, repeat); 1: the strongest only
     # (a sea-side correction named first does not count). Not above 1 by default: on the blind bank 3 raised
     # clean-hull false alarms 6 → 10 of 24 for one more tank, one more misalignment and one compound pair in full
