@@ -85,5 +85,6 @@ def trial(vessel, effect: str | tuple[str, ...] | None, seed: int, n_windows: in
     diag = Diagnoser(vessel, PARAMETERS, data, start, hs_rel_std=hs_rel_std, tp_std_s=tp_std_s,
                      dir_std_deg=dir_std_deg, null=null)
     truth = np.array([TRUTH[p.name] for p in PARAMETERS])
-    named = diag.run(library(effects, moonpool_position=moonpool_position), phi_before="refit", max_named=max_named)
-    return named, truth
+    diagnosis = diag.run(library(effects, moonpool_position=moonpool_position), phi_before="refit",
+                         max_named=max_named)
+    return diagnosis, truth

@@ -230,9 +230,9 @@ def test_a_moonpool_whose_position_is_not_given_is_found_along_the_hull(sample_m
 
 
 def test_an_effect_the_held_out_windows_barely_excite_is_left_to_the_cross_validation(sample_model):
-    """A planted moonpool (ω_p 1.15 rad/s; expected spectra, no noise) in 9 windows whose three held out show nothing
-    between 0.6 and 1.7 rad/s (below the floor there): the held-out gain stays under HOLDOUT_MIN, and the 2-fold
-    cross-validation over all windows names it."""
+    """A planted moonpool (ω_p 1.15 rad/s; expected spectra, no noise) in 9 windows whose three held out have their
+    bins between 0.6 and 1.7 rad/s masked, as bins below the noise floor are: the held-out gain stays under
+    HOLDOUT_MIN, and the 2-fold cross-validation over all windows names it."""
     import dataclasses
 
     from seatune.diagnosis.select import HOLDOUT_MIN
