@@ -410,9 +410,9 @@ class Diagnoser:
         penalty = self._bic_penalty(added)
         edge = ", ".join(_at_bound(f.effect_used, f.params))
         score = _score(gain_t, gain_h, penalty)
-        strong = _strong(gain_t, gain_h, penalty) or (_unseen_by_holdout(gain_t, gain_h, penalty)
-                                                      and _members(f)[-1][0].name not in SEA_SIDE
-                                                      and len(self.data.window_ids) >= 2)
+        strong = _strong(gain_t, gain_h, penalty) or (added > 0 and _members(f)[-1][0].name not in SEA_SIDE
+                                                      and len(self.data.window_ids) >= 2
+                                                      and _unseen_by_holdout(gain_t, gain_h, penalty))
         r0, sd0, pred0 = ctx.before
         if f.effect not in ctx.cache:
             ctx.cache[f.effect] = rf, sdf, predf = self.residuals(f.phi, f.effect_used, f.params)
