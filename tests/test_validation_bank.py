@@ -137,7 +137,7 @@ CI_PAIR = ["ci_osv_clean_000", "ci_barge_imu_misalignment_005"]  # both hulls; a
 
 
 def test_the_sea_figures_report_the_hs_bias_beside_the_rates():
-    """Five windows' partitions by hand: the missing swells found are 12 %, 20 % and −2 % off (within 15 %: 2 of 3,
+    """Seven partitions by hand: the missing swells found are 12 %, 20 % and −2 % off (within 15 %: 2 of 3,
     median +12 %), one wind sea is not found and does not enter its median."""
     rows = [("missing", False, 0.8, True, 0.12), ("missing", False, 0.6, True, 0.20), ("missing", False, 0.9, True,
             -0.02), ("missing", False, 0.7, False, np.nan), ("wind_sea", True, 1.5, True, -0.04),

@@ -410,8 +410,8 @@ class Diagnoser:
         penalty = self._bic_penalty(added)
         edge = ", ".join(_at_bound(f.effect_used, f.params))
         score = _score(gain_t, gain_h, penalty)
-        strong = _strong(gain_t, gain_h, penalty) or (added > 0 and _members(f)[-1][0].name not in SEA_SIDE
-                                                      and len(self.data.window_ids) >= 2
+        name = _members(f)[-1][0].name if f.n_params else "none"
+        strong = _strong(gain_t, gain_h, penalty) or (added > 0 and self._cross_validated(name)
                                                       and _unseen_by_holdout(gain_t, gain_h, penalty))
         r0, sd0, pred0 = ctx.before
         if f.effect not in ctx.cache:
@@ -426,7 +426,7 @@ class Diagnoser:
             ctx.left[f.effect] = res.bands(ctx.train_data, rf[self.train], sdf[self.train], self.modes(f.phi))
         given = tuple(g.name for g, _ in _members(step_base))
         return {"fit": f, "step": step, "given": given,
-                "added": _members(f)[-1][0].name if f.n_params else "none",
+                "added": name,
                 "gain_train": gain_t, "gain_holdout": gain_h, "bic_penalty": penalty,
                 "joint_gain_train": ctx.base.nll_train - f.nll_train,
                 "joint_gain_holdout": ctx.base.nll_holdout - f.nll_holdout, "at_bound": edge, "score": score,
@@ -454,7 +454,7 @@ class Diagnoser:
         calibrated = self.null is not None and self.null.replicates > 0
         null_state: dict = {}
         for row in sorted((r for r in rows if r["eligible"]), key=lambda r: -r["score"]):
-            if row["added"] not in SEA_SIDE and len(self.data.window_ids) >= 2:
+            if self._cross_validated(row["added"]):
                 row["cross_fold_gain"] = self._cross_fold_gain(row["fit"], step_base)
                 row["eligible"] = row["cross_fold_gain"] > HOLDOUT_MIN
             if row["eligible"] and calibrated:
@@ -462,6 +462,11 @@ class Diagnoser:
             if row["eligible"]:
                 return row
         return None
+
+    def _cross_validated(self, added: str) -> bool:
+        """Whether a candidate adding `added` must hold across the windows (`_cross_fold_gain`): vessel-side
+        effects, when there are two windows to split."""
+        return added not in SEA_SIDE and len(self.data.window_ids) >= 2
 
     def _cross_fold_gain(self, fit: Fit, step_base: Fit) -> float:
         """2-fold cross-validation over all windows, alternate in time (Hastie et al. 2009 §7.10): the candidate
