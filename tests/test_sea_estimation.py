@@ -665,6 +665,69 @@ def test_pooled_priors_carry_the_records_hindcast_error_to_each_window():
     assert all(pp.hs_log_std == pytest.approx(0.25) for (pp,) in wide)  # τ ≈ 0.5 > the prior's 0.25: kept
 
 
+
+def test_record_priors_give_a_swell_the_hindcast_lacks_the_records_other_windows_estimate():
+    """Twelve windows of a record with a swell the hindcast lacks (Hs 1.2 m, Tp 13 s, from 200°), found in ten of them
+    with 10 % noise in Hs, and one window whose only added system is a short sea 90° away: each of the ten gets a
+    prior at the mean of the other nine's estimates (leave one out; equal noise, equal weights), narrower than one
+    window's noise; the others get none, and the hindcast's own partition is never a record's."""
+    from seatune.identification.sea_estimation import PartitionPrior, SeaEstimate, record_priors
+
+    rng = np.random.default_rng(5)
+    hindcast = PartitionPrior(1.0, 6.0, 30.0)
+    hs = 1.2 * np.exp(0.1 * rng.standard_normal(12))
+    tp = 13.0 * np.exp(0.02 * rng.standard_normal(12))
+    dirs = 200.0 + 3.0 * rng.standard_normal(12)
+
+    def window(k):
+        wind = _window_estimate(hindcast, 1.0, 6.0, 30.0, 0.05).partitions[0]
+        if k < 10:
+            swell = _window_estimate(None, hs[k], tp[k], dirs[k], 0.1).partitions[0]
+        elif k == 10:
+            swell = _window_estimate(None, 0.6, 5.0, 290.0, 0.1).partitions[0]
+        else:
+            return SeaEstimate([wind], [0], 1.0, 100, 0.0, 0.0)
+        return SeaEstimate([wind, swell], [0, 1], 1.0, 100, 0.0, 0.0)
+
+    priors = record_priors([window(k) for k in range(12)] + [None])
+    assert [len(p) for p in priors] == [1] * 10 + [0, 0, 0]
+    for k in range(10):
+        (pr,) = priors[k]
+        others = np.arange(10) != k
+        assert not pr.in_hindcast
+        assert np.log(pr.hs) == pytest.approx(np.log(hs[:10][others]).mean(), abs=1e-6)
+        assert np.log(pr.tp) == pytest.approx(np.log(tp[:10][others]).mean(), abs=1e-6)
+        assert pr.dir_from_deg == pytest.approx(dirs[:10][others].mean(), abs=1e-6)
+        assert 0.03 <= pr.hs_log_std < 0.1 / np.sqrt(9) + 0.05  # the nine's mean (τ² as their scatter says)
+
+
+@pytest.mark.parametrize("swell_present", [True, False])
+def test_a_records_swell_is_kept_only_where_the_window_shows_it(swell_present):
+    """A wave probe (H = 1) in a wind sea (the hindcast's) and, or not, a 1 m swell at 13 s; the record's prior of
+    that swell is 1.1 m. Present, the swell is kept as a system absent from the hindcast (Hs within 10 %); absent, the
+    prior alone does not keep it: it must pass the test a searched system passes."""
+    from scipy import stats
+
+    from seatune.identification.sea_estimation import DIRS_FROM, PartitionPrior, estimate_sea, partition_spectrum
+
+    omega = np.linspace(0.3, 2.0, 400)
+    x_true = np.array([[np.log(1.5), np.log(6.0), 30.0, np.log(25.0), np.log(3.3)],
+                       [np.log(1.0), np.log(13.0), 200.0, np.log(15.0), np.log(3.0)]])[: 2 if swell_present else 1]
+    s1 = partition_spectrum(omega, DIRS_FROM, x_true).sum(axis=1) * np.radians(5.0)
+    g = np.ones((omega.size, DIRS_FROM.size, 1))
+    nu = 20.0
+    measured = (s1 * stats.chi2(nu).rvs(omega.size, random_state=1) / nu)[:, None, None]
+    wind = PartitionPrior(1.5, 6.0, 30.0, 25.0, 3.3)
+    record = PartitionPrior(1.1, 13.0, 200.0, 15.0, 3.0, hs_log_std=0.05, tp_log_std=0.02, dir_std_deg=5.0,
+                            in_hindcast=False)
+    est = estimate_sea(omega, measured, nu, DIRS_FROM, g, g[None], [wind, record], max_partitions=3)
+    swells = [p for p in est.partitions if p.value["tp"] > 10.0]
+    assert all(p.prior is None for p in swells)  # a record's system is not the hindcast's
+    if swell_present:
+        assert len(swells) == 1 and abs(swells[0].value["hs"] / 1.0 - 1) < 0.1
+    else:  # kept regardless, it had taken the wind sea's tail: 0.54 m at 7.4 s
+        assert [p.prior for p in est.partitions] == [wind]
+
 @pytest.fixture(scope="module")
 def biased_hindcast_record(tmp_path_factory):
     """Six 20-minute windows of one record (independent generator) whose hindcast is 20 % low in Hs, 0.8 s long

@@ -36,7 +36,8 @@ neither fixes these):
   0.15; profiled, 5 ln n, 3 partitions 67 % / 0.17; profiled, 7 ln n, 4 partitions 69 % / 0.11.
 * Record: a hindcast's error persists over the hours of a record while one window sees it through sampling noise,
   so each window is fitted a second time with its hindcast priors moved by the error the record's other windows
-  found (`pooled_priors`, a random-effects mean).
+  found (`pooled_priors`, a random-effects mean), and with a prior for each system it found that the hindcast lacks,
+  from the same system in the other windows (`record_priors`; kept only by the test a searched system passes).
 """
 
 from __future__ import annotations
@@ -423,7 +424,9 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
     log_auto = np.log(auto_m) - log_bias * (auto_m - floor) / auto_m
     problem = _Problem(model_omega, dirs_from_deg, g, log_auto, coh_m, floor, auto_std, coh_std, pairs, welch)
 
-    cost_hindcast = 0.5 * float(np.sum(problem.residuals(x_prior.ravel(), list(priors)) ** 2))
+    hindcast = [p for p in priors if p.in_hindcast]  # the others: the record's added systems (record_priors)
+    x_hindcast = np.array([p.mean() for p in hindcast])
+    cost_hindcast = 0.5 * float(np.sum(problem.residuals(x_hindcast.ravel(), hindcast) ** 2))
     fit = _fit(problem, x_prior, list(priors))
     x, used = fit.x.reshape(-1, 5), list(priors)
     # a wave system must be seen where the loading hardly changes the response (design spread of the log
@@ -451,8 +454,14 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
         if evidence(fit, trial) <= penalty or hs_new < min_hs or _shape_correction(trial.x.reshape(-1, 5)):
             break
         fit, x, used = trial, trial.x.reshape(-1, 5), cand_priors
-    for k in reversed(range(len(priors), len(used))):  # prune: an added system a later one made redundant
-        if len(used) <= len(priors) + 1:
+    n_given = len(priors)
+    for k in reversed([i for i, p in enumerate(priors) if not p.in_hindcast]):  # a record's system: kept as if searched
+        keep = [i for i in range(len(used)) if i != k]
+        trial = _fit(problem, x[keep], [used[i] for i in keep])
+        if evidence(trial, fit) <= penalty or np.exp(x[k, 0]) < min_hs:
+            fit, x, used, n_given = trial, trial.x.reshape(-1, 5), [used[i] for i in keep], n_given - 1
+    for k in reversed(range(n_given, len(used))):  # prune: an added system a later one made redundant
+        if len(used) <= n_given + 1:
             break
         keep = [i for i in range(len(used)) if i != k]
         trial = _fit(problem, x[keep], [used[i] for i in keep])
@@ -477,7 +486,7 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
     var_f = np.trapezoid(phi_fit[:, :nch], omega, axis=0)
     ratio = dict(zip(channel_names, (var_m / np.maximum(var_f, 1e-300)).tolist(), strict=False))
     systems = wave_systems(parts)
-    parts = [Partition(p.value, p.std, m) for p, m in zip(parts, match_hindcast(parts, systems, list(priors)),
+    parts = [Partition(p.value, p.std, m) for p, m in zip(parts, match_hindcast(parts, systems, hindcast),
                                                           strict=True)]
     return SeaEstimate(parts, systems, float(chi2), problem.n_data, cost_hindcast, float(fit.cost),
                        ratio)
@@ -487,6 +496,19 @@ POOL_MIN_WINDOWS = 3  # other windows with a matched partition needed to pool a 
 # the pooled prior's narrowest std per coordinate (log Hs, log Tp, direction [deg], log spread, log γ): what the
 # windows' shared error is known to at best, whatever their number
 POOL_FLOOR = np.array([0.03, 0.02, 3.0, 0.1, 0.1])
+
+
+
+def _random_effects(d: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Random-effects weights 1/(v + τ²) of estimates d (n, k) with variances v (inf: no information; weight 0) and
+    τ² (k,), the scatter beyond their own errors (DerSimonian & Laird 1986, eqs. 1–3)."""
+    w = np.where(np.isfinite(v), 1.0 / v, 0.0)
+    used = (w > 0).sum(axis=0)
+    sw = w.sum(axis=0)
+    mean = (w * d).sum(axis=0) / np.maximum(sw, 1e-300)
+    q = (w * (d - mean) ** 2).sum(axis=0)
+    tau2 = np.maximum(0.0, (q - (used - 1)) / np.maximum(sw - (w**2).sum(axis=0) / np.maximum(sw, 1e-300), 1e-300))
+    return np.where(w > 0, 1.0 / (np.where(w > 0, v, 1.0) + tau2), 0.0), tau2
 
 
 def pooled_priors(priors: list[list[PartitionPrior]], estimates: list[SeaEstimate | None]
@@ -508,12 +530,7 @@ def pooled_priors(priors: list[list[PartitionPrior]], estimates: list[SeaEstimat
             members = [p for p in est.partitions if p.prior is prior]
             if not members:
                 continue
-            top = max(members, key=lambda p: p.value["hs"])
-            hs = partitions_hs(members)
-            value = np.array([np.log(hs), np.log(top.value["tp"]), top.value["dir_from_deg"],
-                              np.log(top.value["spread_deg"]), np.log(top.value["gamma"])])
-            std = np.array([top.std["hs"] / hs, top.std["tp"] / top.value["tp"], top.std["dir_from_deg"],
-                            top.std["spread_deg"] / top.value["spread_deg"], top.std["gamma"] / top.value["gamma"]])
+            value, std = _coordinates(members)
             d = value - prior.mean()
             d[2] = signed_direction_deg(d[2])
             keep = 1.0 - std**2 / prior.std() ** 2  # the data's share of the posterior precision
@@ -525,14 +542,7 @@ def pooled_priors(priors: list[list[PartitionPrior]], estimates: list[SeaEstimat
     for (n_pr, k), rows in offsets.items():
         wins = np.array([r[0] for r in rows])
         d, v = np.array([r[1] for r in rows]), np.array([r[2] for r in rows])  # (n, 5)
-        w = np.where(np.isfinite(v), 1.0 / v, 0.0)
-        used = (w > 0).sum(axis=0)
-        sw = w.sum(axis=0)
-        mean = (w * d).sum(axis=0) / np.maximum(sw, 1e-300)
-        q = (w * (d - mean) ** 2).sum(axis=0)
-        tau2 = np.maximum(0.0, (q - (used - 1)) / np.maximum(sw - (w**2).sum(axis=0) / np.maximum(sw, 1e-300),
-                                                               1e-300))
-        ws = np.where(w > 0, 1.0 / (np.where(w > 0, v, 1.0) + tau2), 0.0)
+        ws, tau2 = _random_effects(d, v)
         for w_idx in range(n_win):
             pr = priors[w_idx]
             if len(pr) != n_pr:
@@ -549,6 +559,69 @@ def pooled_priors(priors: list[list[PartitionPrior]], estimates: list[SeaEstimat
             out[w_idx][k] = pr[k].moved(pr[k].mean() + np.where(pooled, b, 0.0), np.where(pooled, std, std0))
     return out
 
+
+
+def _coordinates(members: list[Partition]) -> tuple[np.ndarray, np.ndarray]:
+    """Partitions of one sea in the fitted coordinates (log Hs of them together, and log Tp, direction, log spread,
+    log γ of the strongest) and their standard deviations."""
+    top = max(members, key=lambda p: p.value["hs"])
+    hs = partitions_hs(members)
+    value = np.array([np.log(hs), np.log(top.value["tp"]), top.value["dir_from_deg"], np.log(top.value["spread_deg"]),
+                      np.log(top.value["gamma"])])
+    std = np.array([top.std["hs"] / hs, top.std["tp"] / top.value["tp"], top.std["dir_from_deg"],
+                    top.std["spread_deg"] / top.value["spread_deg"], top.std["gamma"] / top.value["gamma"]])
+    return value, std
+
+
+
+def _systems(est: SeaEstimate) -> list[list[Partition]]:
+    """The partitions of each wave system of an estimate."""
+    return [[p for p, t in zip(est.partitions, est.systems, strict=True) if t == s] for s in dict.fromkeys(est.systems)]
+
+
+RECORD_TP_REL, RECORD_DIR_DEG = 0.2, 30.0  # one swell in two windows of a record: Tp and direction this close
+
+
+def record_priors(estimates: list[SeaEstimate | None]) -> list[list[PartitionPrior]]:
+    """Per window, a prior for each wave system it found that the hindcast lacks, from the same system as the
+    record's other windows found it (leave one out; in_hindcast False).
+
+    A swell the hindcast missed persists over the record as its errors do (pooled_priors), and one window's Hs of
+    it is as noisy: on the blind bank the added swells' Hs scattered 9.5 % (rms) about their record's median. Per
+    window and added system, the nearest added system of each other window within RECORD_TP_REL in Tp and
+    RECORD_DIR_DEG in direction enters the random-effects mean of pooled_priors (DerSimonian & Laird 1986,
+    eqs. 1–3) when at least POOL_MIN_WINDOWS others have one; std √(τ² + se²), floored at POOL_FLOOR. The window's
+    second fit starts from it and keeps it only by the test a searched system passes."""
+    added = []  # per window: (value (n, 5), variance (n, 5)) of its systems absent from the hindcast
+    for est in estimates:
+        rows = [] if est is None else [
+            _coordinates(members) for members in _systems(est) if all(p.prior is None for p in members)]
+        added.append((np.array([r[0] for r in rows]).reshape(-1, 5),
+                      np.array([np.where(np.isfinite(r[1]) & (r[1] > 0), r[1] ** 2, np.inf) for r in rows]
+                               ).reshape(-1, 5)))
+    out: list[list[PartitionPrior]] = [[] for _ in estimates]
+    for w, (own, _) in enumerate(added):
+        for a in own:
+            d, v = [], []
+            for u, (val, var) in enumerate(added):
+                if u == w or not len(val):
+                    continue
+                dtp = np.abs(val[:, 1] - a[1])  # log Tp
+                ddir = direction_difference_deg(val[:, 2], a[2])
+                near = (dtp < np.log1p(RECORD_TP_REL)) & (ddir < RECORD_DIR_DEG)
+                if near.any():
+                    j = int(np.argmin(np.where(near, dtp / np.log1p(RECORD_TP_REL) + ddir / RECORD_DIR_DEG, np.inf)))
+                    d.append(np.r_[val[j, :2], a[2] + signed_direction_deg(val[j, 2], a[2]), val[j, 3:]])
+                    v.append(var[j])
+            if len(d) < POOL_MIN_WINDOWS:
+                continue
+            d = np.array(d)
+            ws, tau2 = _random_effects(d, np.array(v))
+            s = ws.sum(axis=0)
+            b = np.where(s > 0, (ws * d).sum(axis=0) / np.maximum(s, 1e-300), a)
+            std = np.where(s > 0, np.maximum(np.sqrt(tau2 + 1.0 / np.maximum(s, 1e-300)), POOL_FLOOR), np.inf)
+            out[w].append(PartitionPrior(hs=1.0, tp=10.0, dir_from_deg=0.0, in_hindcast=False).moved(b, std))
+    return out
 
 def _shape_correction(x: np.ndarray, tp_rel: float = 0.25) -> bool:
     """An added partition (last row) at the period of another is a correction of that one's frequency or
