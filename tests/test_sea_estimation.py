@@ -701,6 +701,23 @@ def test_record_priors_give_a_swell_the_hindcast_lacks_the_records_other_windows
         assert 0.03 <= pr.hs_log_std < 0.1 / np.sqrt(9) + 0.05  # the nine's mean (τ² as their scatter says)
 
 
+
+def test_a_records_system_is_reported_as_absent_from_the_hindcast():
+    """sea_states.parquet's rows of a window fitted with its hindcast prior moved (pooled) and a record's system
+    after it: the moved prior's partition carries the hindcast's own values, the record's system none."""
+    from seatune.identification.sea_estimation import PartitionPrior, SeaEstimate
+    from seatune.pipeline.sea import partition_rows
+
+    hindcast = PartitionPrior(1.2, 7.0, 40.0)
+    moved = hindcast.moved(hindcast.mean() + np.log([1.2, 1.0, 1.0, 1.0, 1.0]), hindcast.std())
+    record = PartitionPrior(0.7, 14.0, 250.0, in_hindcast=False)
+    wind = _window_estimate(moved, 1.45, 7.1, 42.0, 0.05).partitions[0]
+    swell = _window_estimate(None, 0.72, 13.8, 248.0, 0.1).partitions[0]
+    rows = pd.DataFrame(partition_rows("3", SeaEstimate([wind, swell], [0, 1], 1.0, 100, 0.0, 0.0), 90.0,
+                                       ["pitch"], [hindcast], [moved, record]))
+    assert rows["in_hindcast"].tolist() == [True, False]
+    assert rows["hindcast_hs"].iloc[0] == pytest.approx(1.2) and np.isnan(rows["hindcast_hs"].iloc[1])
+
 @pytest.mark.parametrize("swell_present", [True, False])
 def test_a_records_swell_is_kept_only_where_the_window_shows_it(swell_present):
     """A wave probe (H = 1) in a wind sea (the hindcast's) and, or not, a 1 m swell at 13 s; the record's prior of
