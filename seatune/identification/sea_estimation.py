@@ -498,7 +498,6 @@ POOL_MIN_WINDOWS = 3  # other windows with a matched partition needed to pool a 
 POOL_FLOOR = np.array([0.03, 0.02, 3.0, 0.1, 0.1])
 
 
-
 def _random_effects(d: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Random-effects weights 1/(v + τ²) of estimates d (n, k) with variances v (inf: no information; weight 0) and
     τ² (k,), the scatter beyond their own errors (DerSimonian & Laird 1986, eqs. 1–3)."""
@@ -560,7 +559,6 @@ def pooled_priors(priors: list[list[PartitionPrior]], estimates: list[SeaEstimat
     return out
 
 
-
 def _coordinates(members: list[Partition]) -> tuple[np.ndarray, np.ndarray]:
     """Partitions of one sea in the fitted coordinates (log Hs of them together, and log Tp, direction, log spread,
     log γ of the strongest) and their standard deviations."""
@@ -571,7 +569,6 @@ def _coordinates(members: list[Partition]) -> tuple[np.ndarray, np.ndarray]:
     std = np.array([top.std["hs"] / hs, top.std["tp"] / top.value["tp"], top.std["dir_from_deg"],
                     top.std["spread_deg"] / top.value["spread_deg"], top.std["gamma"] / top.value["gamma"]])
     return value, std
-
 
 
 def _systems(est: SeaEstimate) -> list[list[Partition]]:
@@ -622,6 +619,7 @@ def record_priors(estimates: list[SeaEstimate | None]) -> list[list[PartitionPri
             std = np.where(s > 0, np.maximum(np.sqrt(tau2 + 1.0 / np.maximum(s, 1e-300)), POOL_FLOOR), np.inf)
             out[w].append(PartitionPrior(hs=1.0, tp=10.0, dir_from_deg=0.0, in_hindcast=False).moved(b, std))
     return out
+
 
 def _shape_correction(x: np.ndarray, tp_rel: float = 0.25) -> bool:
     """An added partition (last row) at the period of another is a correction of that one's frequency or
