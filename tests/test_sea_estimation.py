@@ -745,6 +745,47 @@ def test_a_records_swell_is_kept_only_where_the_window_shows_it(swell_present):
     else:  # kept regardless, it had taken the wind sea's tail: 0.54 m at 7.4 s
         assert [p.prior for p in est.partitions] == [wind]
 
+
+@pytest.mark.parametrize("true", [-1.41, -2.3, 0.4])
+def test_a_profiled_misfit_s_minimum_and_curvature(true):
+    """A misfit ½((v − v₀)/0.3)² on the grid a read parameter is profiled over (the vessel's 0 ± 2 prior σ of 1): the
+    parabola's vertex is v₀ wherever it lies among the grid's three lowest, σ̂ = 0.3; beyond the grid, its end."""
+    from seatune.identification.sea_estimation import profile_minimum
+
+    values = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])
+    value, std, least = profile_minimum(values, 0.5 * ((values - true) / 0.3) ** 2)
+    assert value == pytest.approx(max(true, -2.0)) and std == pytest.approx(0.3)
+    assert least == pytest.approx(0.5 * ((value - true) / 0.3) ** 2, abs=1e-9)
+    assert profile_minimum(values, -((values + 0.5) ** 2)) == (2.0, np.inf, -6.25)  # not convex: the lowest point
+
+
+@pytest.mark.parametrize("xcg", [-1.5, 0.0])
+def test_the_sea_fit_reads_the_lcg_the_vessel_yaml_has_wrong(tmp_path, xcg):
+    """A barge whose LCG is 1.5 m aft of the vessel YAML's (xcg 0 ± 1 m, untuned), or where the YAML has it: three
+    20-minute windows from the independent path, `seatune sea` by the real CLI with `sea.read_loading: [xcg]`. The
+    windows' summed misfit, profiled over xcg, is least near the truth, and the reading is taken where the misfit
+    falls by more than BIC's penalty; it is recorded in sea_states.parquet and the later stages' vessel holds it.
+    Seen: −1.41 m read (misfit −462 nats); +0.09 m, −2.1 nats against 3.8: the YAML's 0 kept."""
+    from seatune.io.run_yaml import Run
+    from seatune.pipeline.sea import sea_design, with_sea_read
+    from seatune.pipeline.vessel import open_run_vessel
+
+    spec = make_spec(trial="lcg", index=21, hull="barge", category="clean", effects=[], n_windows=3, short=True,
+                     layout="partitions")
+    truth = trial.generate(replace(spec, loading=replace(spec.loading, xcg=xcg)), tmp_path)
+    folder = tmp_path / "lcg"
+    assert truth["loading"]["xcg"] == xcg
+    data = yaml.safe_load((folder / "run.yaml").read_text())
+    (folder / "run.yaml").write_text(yaml.safe_dump({**data, "sea": {"read_loading": ["xcg"]}}))
+    res = subprocess.run([str(Path(sys.executable).with_name("seatune")), "sea", "run.yaml"], cwd=folder,
+                         capture_output=True, text=True)
+    assert res.returncode == 0, res.stdout + res.stderr
+    print(res.stdout)
+    run = Run(folder / "run.yaml")
+    value, std = sea_design(run, "read").get("xcg", (0.0, None))  # none read: the vessel's kept
+    assert abs(value - xcg) < 0.5 and (std is None) == (xcg == 0.0)
+    assert float(with_sea_read(run, open_run_vessel(run)).base_loading.xcg[0]) == pytest.approx(value)
+
 @pytest.fixture(scope="module")
 def biased_hindcast_record(tmp_path_factory):
     """Six 20-minute windows of one record (independent generator) whose hindcast is 20 % low in Hs, 0.8 s long

@@ -621,6 +621,21 @@ def record_priors(estimates: list[SeaEstimate | None]) -> list[list[PartitionPri
     return out
 
 
+
+def profile_minimum(values: np.ndarray, costs: np.ndarray) -> tuple[float, float, float]:
+    """(v̂, σ̂, ĉ) of a misfit profiled over one parameter, costs = −ln L + const at increasing values: the vertex of
+    the parabola through the lowest cost and its two neighbours (the nearest three at an end of the grid), held within
+    those three, σ̂ = 1/√curvature and ĉ the parabola there. Where the three are not convex: the lowest point, σ̂ inf."""
+    k = int(np.clip(np.argmin(costs), 1, len(values) - 2))
+    v, c = values[k - 1: k + 2], costs[k - 1: k + 2]
+    a, b, c0 = np.polyfit(v, c, 2)
+    if not a > 0:
+        best = int(np.argmin(costs))
+        return float(values[best]), float("inf"), float(costs[best])
+    vertex = float(np.clip(-b / (2.0 * a), v[0], v[-1]))
+    return vertex, float(1.0 / np.sqrt(2.0 * a)), float(min(np.polyval([a, b, c0], vertex), costs.min()))
+
+
 def _shape_correction(x: np.ndarray, tp_rel: float = 0.25) -> bool:
     """An added partition (last row) at the period of another is a correction of that one's frequency or
     directional shape (an Ochi–Hubble or wrapped-normal sea fitted by JONSWAP × cos-2s), not a new system, when

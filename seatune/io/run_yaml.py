@@ -146,11 +146,20 @@ class SeaSettings(Strict):
     roll_free: bool = True  # also fit each window's sea without the roll channels, for identify's roll ω_n
     # fit each window again with the hindcast's error the record's other windows found (partial pooling)
     pool_windows: bool = True
+    # loading parameters read from the sea fit itself (its misfit profiled over the vessel prior) where they are
+    # uncertain (a prior in the vessel YAML) and neither known nor tuned; e.g. [xcg]. Off by default: on the blind
+    # bank the LCG read lost an IMU lever arm to it and named one more false alarm (README)
+    read_loading: list[str] = []
     segment_s: PositiveFloat = 128.0  # Welch segment of the cross-spectra (Δω 0.05 rad/s, twice the filter's ν)
     # prior widths of the hindcast's partitions, floors of hindcast.uncertainty (ERA5 vs buoys, Han A5 Table 4.1)
     hs_rel_std: PositiveFloat = 0.25
     tp_rel_std: PositiveFloat = 0.15
     dir_std_deg: PositiveFloat = 30.0
+
+    @field_validator("read_loading")
+    @classmethod
+    def _read_loading(cls, v):
+        return check_loading_names(v)
 
 
 class IdentifySettings(Strict):

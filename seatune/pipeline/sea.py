@@ -138,6 +138,55 @@ def hindcast_priors(hc, row, lat, lon, unc, settings):
     return parts or [prior(row.hs, row.tp, row.dir_from_deg)]
 
 
+READ_STEPS = (-2.0, -1.0, 1.0, 2.0)  # a read parameter's profile: prior σ steps beside the vessel's own value
+
+
+def read_parameters(run, vessel, believed) -> list:
+    """The loading parameters the sea fit reads (`sea.read_loading`): with a prior in the vessel YAML, neither known
+    nor among `believed`; as Parameters centred on the vessel's value with the prior's std and bounds."""
+    from seatune.pipeline.vessel import with_mass_aliases
+    from seatune.tuning.interface import Parameter
+
+    fixed = with_mass_aliases(set(run.spec.identify.known) | {p.name for p in believed})
+    out = []
+    for name in run.spec.sea.read_loading:
+        prior = vessel.spec.priors.get(name)
+        value = getattr(vessel.spec.loading, name, None)
+        if prior is None or name in fixed or value is None:
+            continue
+        lo, hi = prior.bounds if prior.bounds is not None else (-np.inf, np.inf)
+        if lo < float(value) < hi:
+            out.append(Parameter(name, float(value), float(prior.std), float(lo), float(hi)))
+    return out
+
+
+def read_from_sea(vessel, believed, parameter, channels, inputs, settings, first) -> tuple[float, float, float, dict]:
+    """(value, std, gain, {value: misfit}) of one loading parameter read from the sea fit: the windows' summed misfit
+    (½Σr² of each MAP fit, the full channel set) profiled over the vessel's value + READ_STEPS prior σ, plus the
+    prior's −ln p, and its minimum (`profile_minimum`); gain: the profile's drop from the vessel's value to there.
+    `first`: the fits at the vessel's value.
+
+    The sea fit's cross-spectra carry what the σ of the channels (tune) hardly does: on the blind bank the LCG
+    (xcg) that tune could not move (barge_clean_003: −0.1 ± 0.5 m tuned, −1.4 m true) is where this misfit is least
+    (−1.41 m of the grid −3 … +1), and the vessel's xcg 0 had put a missing swell's Hs 12 % high."""
+    from seatune.identification.sea_estimation import profile_minimum
+
+    centre, step = parameter.prior_mean, parameter.prior_std
+    values = np.unique(np.clip(centre + step * np.array([0.0, *READ_STEPS]), parameter.lower, parameter.upper))
+    tasks = [(k, list(range(len(channels))), pr) for k, (*_, pr) in enumerate(inputs)]
+    misfit = {}
+    for v in values:
+        if v == centre:
+            misfit[float(v)] = sum(e.cost for e in first)
+            continue
+        moved = vessel.with_loading(**{parameter.name: float(v)})
+        misfit[float(v)] = sum(e.cost for e in estimate_windows(moved, design_loadings(moved, believed), channels,
+                                                               inputs, tasks, settings))
+    costs = np.array([misfit[float(v)] + 0.5 * ((v - centre) / step) ** 2 for v in values])
+    value, std, least = profile_minimum(values, costs)
+    return value, min(std, step), misfit[float(centre)] - least, misfit
+
+
 def design_loadings(vessel, parameters):
     """The prior mean loading and ±√3σ per tuned parameter (the RAO uncertainty the fit allows for)."""
     from seatune.pipeline.tune import prior_design
@@ -354,6 +403,23 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
     first = estimate_windows(vessel, design, channels, inputs,
                              [(k, cols, pr) for _, cols in subsets for k, pr in enumerate(hindcast)], settings)
     est = [first[s * len(inputs):(s + 1) * len(inputs)] for s in range(len(subsets))]
+    # loading parameters read from the sea fit: {name: (value, std)}; a refit the alternations ask for (`parameters`
+    # given) keeps the first fit's reading, which the vessel they pass already holds
+    read = {} if parameters is None or not main else {k: tuple(v) for k, v in sea_design(run, "read").items()}
+    for parameter in read_parameters(run, vessel, believed) if main and parameters is None and len(inputs) > 1 else ():
+        value, std, gain, _ = read_from_sea(vessel, believed, parameter, channels, inputs, settings, est[0])
+        # taken where the misfit drops by more than BIC's ½ ln n for one parameter (n: the windows' residuals, halved
+        # for the correlation of adjacent Welch bins, as the sea's own search counts them)
+        penalty = 0.5 * np.log(max(sum(e.n_residuals for e in est[0]) / 2.0, 2.0))
+        keep = "read" if gain > penalty else "kept the vessel's"
+        echo(f"sea: {parameter.name} from the sea fit {value:.2f} ± {std:.2f} (vessel {parameter.prior_mean:g} ± "
+             f"{parameter.prior_std:g}; misfit −{gain:.1f}, BIC {penalty:.1f}): {keep}")
+        if gain > penalty:
+            read[parameter.name] = (value, std)
+    refit_all = bool(read) and parameters is None
+    if refit_all:  # every window fitted again through the loading read
+        vessel = vessel.with_loading(**{name: v for name, (v, _) in read.items()})
+        design = design_loadings(vessel, believed)
     if settings.pool_windows and len(inputs) > POOL_MIN_WINDOWS:
         # the hindcast's partitions moved by the record's error in them, and the record's systems the hindcast lacks
         pooled = [[moved + added for moved, added in zip(pooled_priors(hindcast, e), record_priors(e), strict=True)]
@@ -361,13 +427,18 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
         # refitted from the pooled priors, not from the first fit: started there (2.4× cheaper), the blind bank's
         # wind seas found fell 91 → 87 % and clean-hull false alarms rose 3 → 5 of 24
         moved = [(s, k) for s in range(len(subsets)) for k, pr in enumerate(hindcast)
-                 if len(pooled[s][k]) > len(pr) or not all(a is b for a, b in zip(pooled[s][k], pr, strict=True))]
+                 if refit_all or len(pooled[s][k]) > len(pr)
+                 or not all(a is b for a, b in zip(pooled[s][k], pr, strict=True))]
         again = estimate_windows(vessel, design, channels, inputs,
                                  [(k, subsets[s][1], pooled[s][k]) for s, k in moved], settings)
         for (s, k), e in zip(moved, again, strict=True):
             est[s][k] = e
     else:
         pooled = [hindcast] * len(subsets)
+        if refit_all:
+            again = estimate_windows(vessel, design, channels, inputs,
+                                     [(k, cols, pr) for _, cols in subsets for k, pr in enumerate(hindcast)], settings)
+            est = [again[s * len(inputs):(s + 1) * len(inputs)] for s in range(len(subsets))]
     rows, *rows_roll = ([r for (wid, hd, _, pr), e, pp in zip(inputs, est[s], pooled[s], strict=True)
                          for r in partition_rows(wid, e, hd, names, pr, pp)] for s, (names, _) in enumerate(subsets))
     rows_roll = rows_roll[0] if rows_roll else []
@@ -375,7 +446,8 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
     if settings.roll_free and main:  # empty when too few channels remain without roll: identify takes the full fit
         write_table(pd.DataFrame(rows_roll, columns=list(SEA_UNITS)), out_roll, SEA_UNITS, {"fingerprint": fp})
     # the loading belief the RAOs came from: the pitch alternation compares identify's r55 with it
-    meta = {"fingerprint": fp, "design": {p.name: [p.prior_mean, p.prior_std] for p in believed}}
+    meta = {"fingerprint": fp, "design": {p.name: [p.prior_mean, p.prior_std] for p in believed},
+            "read": {name: [v, sd] for name, (v, sd) in read.items()}}
     write_table(table, out, SEA_UNITS, meta)
     systems = system_table(table)
     added = systems[~systems["in_hindcast"]] if len(systems) else systems
@@ -394,6 +466,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
         "added": len(added),
         "hs_ratio": float(np.nanmedian(ratio)) if np.isfinite(ratio).any() else float("nan"),
         "added_hs": [round(float(v), 2) for v in added["hs"]],
+        **({"read": {name: round(v, 3) for name, (v, _) in read.items()}} if read else {}),
     }
 
 
@@ -530,15 +603,22 @@ def alternate_modes(run, vessel, stages, echo=print) -> list[dict]:
     return rounds
 
 
-def sea_design(run) -> dict:
+def sea_design(run, key: str = "design") -> dict:
     """{parameter: [mean, std]} of the loading belief sea_states.parquet was fitted through ({} when it predates
-    this record or is missing)."""
+    this record or is missing); key "read": the loading parameters the sea fit read (`read_from_sea`)."""
     from seatune.io.parquet import table_metadata
 
     try:
-        return table_metadata(run.artefact("sea_states.parquet")).get("design", {})
+        return table_metadata(run.artefact("sea_states.parquet")).get(key, {})
     except (OSError, KeyError, ValueError):
         return {}
+
+
+def with_sea_read(run, vessel):
+    """The vessel with the loading values the sea fit read (sea_states.parquet) in its base condition, as
+    `identify.known` values are: identify, tune and diagnose then model the xcg the motions showed."""
+    read = sea_design(run, "read")
+    return vessel.with_loading(**{name: float(v[0]) for name, v in read.items()}) if read else vessel
 
 
 def _pitch_omega(run) -> float:

@@ -191,6 +191,10 @@ def run_stages(run_yaml: str, last: str, force: tuple[str, ...] = (), progress=N
             continue
         click.echo(_line(stage, summary, time.perf_counter() - start))
         release_memory()
+        if stage == "sea":  # the loading the sea fit read (xcg), for every later stage
+            from seatune.pipeline.sea import with_sea_read
+
+            model = with_sea_read(run, model)
         if stage == "windows" and last == "windows" and (empty := _no_window(run)):
             click.echo(f"warning: no accepted window: {empty}")
         if stage == "windows" and ORDER.index(last) > ORDER.index("identify"):
