@@ -37,6 +37,9 @@ def predict(run_yaml, forecast, forecast_format, force):
         raise UserError(str(forecast), None, "forecast file not found")
     hc = read_hindcast(forecast, format=forecast_format)
     run_stages(run_yaml, "tune")
+    from seatune.pipeline.sea import with_sea_read
+
+    vessel = with_sea_read(run, vessel)  # the LCG the sea fit read (sea.read_loading), as tune modelled it
     start = time.perf_counter()
     summary = predict_stage(run, vessel, forecast, forecast_format, echo=click.echo, force=force, hc=hc)
     click.echo(summary_line(summary, time.perf_counter() - start))
