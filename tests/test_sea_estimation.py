@@ -701,7 +701,6 @@ def test_record_priors_give_a_swell_the_hindcast_lacks_the_records_other_windows
         assert 0.03 <= pr.hs_log_std < 0.1 / np.sqrt(9) + 0.05  # the nine's mean (τ² as their scatter says)
 
 
-
 def test_a_records_system_is_reported_as_absent_from_the_hindcast():
     """sea_states.parquet's rows of a window fitted with its hindcast prior moved (pooled) and a record's system
     after it: the moved prior's partition carries the hindcast's own values, the record's system none."""
@@ -717,6 +716,7 @@ def test_a_records_system_is_reported_as_absent_from_the_hindcast():
                                        ["pitch"], [hindcast], [moved, record]))
     assert rows["in_hindcast"].tolist() == [True, False]
     assert rows["hindcast_hs"].iloc[0] == pytest.approx(1.2) and np.isnan(rows["hindcast_hs"].iloc[1])
+
 
 @pytest.mark.parametrize("swell_present", [True, False])
 def test_a_records_swell_is_kept_only_where_the_window_shows_it(swell_present):
@@ -748,8 +748,9 @@ def test_a_records_swell_is_kept_only_where_the_window_shows_it(swell_present):
 
 @pytest.mark.parametrize("true", [-1.41, -2.3, 0.4])
 def test_a_profiled_misfit_s_minimum_and_curvature(true):
-    """A misfit ½((v − v₀)/0.3)² on the grid a read parameter is profiled over (the vessel's 0 ± 2 prior σ of 1): the
-    parabola's vertex is v₀ wherever it lies among the grid's three lowest, σ̂ = 0.3; beyond the grid, its end."""
+    """A misfit ½((v − v₀)/0.3)² on the grid a read parameter is profiled over (the vessel's 0, ± 1 and 2 prior σ
+    of 1): the parabola's vertex is v₀ wherever it lies among the grid's three lowest, σ̂ = 0.3; beyond the grid,
+    its end."""
     from seatune.identification.sea_estimation import profile_minimum
 
     values = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])
