@@ -510,6 +510,12 @@ def _random_effects(d: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return np.where(w > 0, 1.0 / (np.where(w > 0, v, 1.0) + tau2), 0.0), tau2
 
 
+def _random_effects_mean(ws: np.ndarray, tau2: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The mean of d (n, k) with `_random_effects`' weights ws and τ², its std √(τ² + 1/Σw), and Σw (0: no data)."""
+    s = ws.sum(axis=0)
+    return (ws * d).sum(axis=0) / np.maximum(s, 1e-300), np.sqrt(tau2 + 1.0 / np.maximum(s, 1e-300)), s
+
+
 def pooled_priors(priors: list[list[PartitionPrior]], estimates: list[SeaEstimate | None]
                   ) -> list[list[PartitionPrior]]:
     """Each window's hindcast priors moved by the error the record's other windows found in them (leave one out).
@@ -548,10 +554,9 @@ def pooled_priors(priors: list[list[PartitionPrior]], estimates: list[SeaEstimat
                 continue
             others = wins != w_idx
             n_other = (ws[others] > 0).sum(axis=0)
-            s = ws[others].sum(axis=0)
-            b = (ws[others] * d[others]).sum(axis=0) / np.maximum(s, 1e-300)
+            b, se, _ = _random_effects_mean(ws[others], tau2, d[others])
             std0 = pr[k].std()
-            std = np.clip(np.sqrt(tau2 + 1.0 / np.maximum(s, 1e-300)), POOL_FLOOR, std0)
+            std = np.clip(se, POOL_FLOOR, std0)
             pooled = n_other >= POOL_MIN_WINDOWS
             if not pooled.any():
                 continue
@@ -613,10 +618,9 @@ def record_priors(estimates: list[SeaEstimate | None]) -> list[list[PartitionPri
             if len(d) < POOL_MIN_WINDOWS:
                 continue
             d = np.array(d)
-            ws, tau2 = _random_effects(d, np.array(v))
-            s = ws.sum(axis=0)
-            b = np.where(s > 0, (ws * d).sum(axis=0) / np.maximum(s, 1e-300), a)
-            std = np.where(s > 0, np.maximum(np.sqrt(tau2 + 1.0 / np.maximum(s, 1e-300)), POOL_FLOOR), np.inf)
+            b, se, s = _random_effects_mean(*_random_effects(d, np.array(v)), d)
+            b = np.where(s > 0, b, a)
+            std = np.where(s > 0, np.maximum(se, POOL_FLOOR), np.inf)
             out[w].append(PartitionPrior(hs=1.0, tp=10.0, dir_from_deg=0.0, in_hindcast=False).moved(b, std))
     return out
 

@@ -405,8 +405,9 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
     est = [first[s * len(inputs):(s + 1) * len(inputs)] for s in range(len(subsets))]
     # loading parameters read from the sea fit: {name: (value, std)}; a refit the alternations ask for (`parameters`
     # given) keeps the first fit's reading, which the vessel they pass already holds
-    read = {} if parameters is None or not main else {k: tuple(v) for k, v in sea_design(run, "read").items()}
-    for parameter in read_parameters(run, vessel, believed) if main and parameters is None and len(inputs) > 1 else ():
+    fresh = main and parameters is None
+    read = {} if fresh or not main else {k: tuple(v) for k, v in sea_design(run, "read").items()}
+    for parameter in read_parameters(run, vessel, believed) if fresh and len(inputs) > 1 else ():
         value, std, gain, _ = read_from_sea(vessel, believed, parameter, channels, inputs, settings, est[0])
         # taken where the misfit drops by more than BIC's ½ ln n for one parameter (n: the windows' residuals, halved
         # for the correlation of adjacent Welch bins, as the sea's own search counts them)
@@ -416,7 +417,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
              f"{parameter.prior_std:g}; misfit −{gain:.1f}, BIC {penalty:.1f}): {keep}")
         if gain > penalty:
             read[parameter.name] = (value, std)
-    refit_all = bool(read) and parameters is None
+    refit_all = bool(read) and fresh
     if refit_all:  # every window fitted again through the loading read
         vessel = vessel.with_loading(**{name: v for name, (v, _) in read.items()})
         design = design_loadings(vessel, believed)
