@@ -14,7 +14,13 @@ import pytest
 import yaml
 from scipy import signal
 
-from seatune.identification.sea_estimation import Partition, cross_spectra, partition_spectrum, wave_systems
+from seatune.identification.sea_estimation import (
+    FIELDS,
+    Partition,
+    cross_spectra,
+    partition_spectrum,
+    wave_systems,
+)
 from seatune.simulate.independent import trial
 from seatune.simulate.independent.bank import make_spec
 from seatune.simulate.independent.seas import Partition as TruePartition
@@ -54,6 +60,54 @@ def test_partition_spectrum_holds_its_hs_and_direction():
     mean = np.degrees(np.arctan2((e * np.sin(th)).sum(), (e * np.cos(th)).sum())) % 360
     assert _angle(mean, 300.0) < 0.5
     assert np.isclose(omega[np.argmax(s.sum(axis=1))], 2 * np.pi / 9.0, atol=0.01)
+
+
+@pytest.mark.parametrize("lam", [1.5, 3.0, 5.3])
+def test_a_tail_of_n_4_lambda_plus_1_without_peak_enhancement_is_ochi_hubble(lam):
+    """γ = 1 and n = 4λ + 1: the independent trial generator's Ochi–Hubble spectrum (its own normalisation through
+    Γ(λ), Ochi & Hubble 1976 eq. 1) on every bin; n = 5 is the JONSWAP the fit used before n was fitted."""
+    from seatune.simulate.independent.seas import ochi_hubble
+
+    omega, dirs = np.linspace(0.2, 3.0, 800), np.arange(72) * 5.0
+    x = np.array([[np.log(1.7), np.log(11.0), 40.0, np.log(20.0), 0.0, np.log(4 * lam + 1)]])
+    s1 = partition_spectrum(omega, dirs, x).sum(axis=1) * np.radians(5.0)
+    ref = ochi_hubble(omega, 1.7, 11.0, lam)
+    assert np.allclose(s1, ref, rtol=1e-5, atol=1e-6 * ref.max())
+    jonswap = np.array([[np.log(1.7), np.log(11.0), 40.0, np.log(20.0), np.log(3.3)]])  # (P, 5): n = 5
+    np.testing.assert_allclose(partition_spectrum(omega, dirs, np.c_[jonswap, np.log(5.0)]),
+                               partition_spectrum(omega, dirs, jonswap), rtol=1e-12)
+
+
+def test_the_fit_reads_an_ochi_hubble_swells_steep_tail():
+    """A wave probe (H = 1) in an Ochi–Hubble swell of λ = 5 (n = 21, the independent generator's spectrum) drawn as
+    S·χ²_ν/ν: with n held at JONSWAP's 5 (γ then at its bound) the fit puts Hs 26 % low and the spectrum 1.6 ω_p
+    down the tail 6× the truth; with n fitted, Hs within 3 %, that tail within 15 % and n within 10 % of 21."""
+    from scipy import stats
+
+    from seatune.identification.sea_estimation import DIRS_FROM, PartitionPrior, estimate_sea
+    from seatune.simulate.independent.seas import ochi_hubble
+
+    omega = np.linspace(0.3, 1.6, 300)
+    truth = ochi_hubble(omega, 1.2, 11.0, 5.0)
+    g = np.ones((omega.size, DIRS_FROM.size, 1))
+    nu = 40.0
+    measured = (truth * stats.chi2(nu).rvs(omega.size, random_state=1) / nu)[:, None, None]
+    tail = np.argmin(np.abs(omega - 1.6 * 2 * np.pi / 11.0))
+
+    def fitted(**fixed):
+        prior = PartitionPrior(1.0, 10.5, 90.0, 20.0, 3.3, hs_log_std=1.0, tp_log_std=0.2, dir_std_deg=1.0,
+                               spread_log_std=1e-3, **fixed)
+        est = estimate_sea(omega, measured, nu, DIRS_FROM, g, g[None], [prior], max_partitions=1)
+        x = np.array([[np.log(p.value[f]) if f != "dir_from_deg" else p.value[f] for f in FIELDS]
+                      for p in est.partitions])
+        return partition_spectrum(omega, DIRS_FROM, x).sum(axis=1) * np.radians(5.0), est.partitions[0].value
+
+    jonswap, held = fitted(tail_log_std=1e-6)
+    free, value = fitted()
+    assert held["hs"] < 0.85 * 1.2 and jonswap[tail] / truth[tail] > 3.0
+    assert abs(value["hs"] / 1.2 - 1) < 0.03
+    assert abs(free[tail] / truth[tail] - 1) < 0.15
+    assert abs(value["tail"] / 21.0 - 1) < 0.1
 
 
 @pytest.mark.parametrize("mean_deg", [10.0, 350.0, 370.0, -15.0, 185.0])
@@ -218,8 +272,8 @@ def test_the_batched_jacobian_is_scipys_finite_difference():
     problem = _Problem(omega, dirs, outer_raos(h), rng.normal(size=(40, 3)), coh, np.full(3, 1e-3),
                        rng.uniform(0.2, 0.5, (40, 3)), rng.uniform(0.1, 0.3, (40, 3)), pairs)
     priors = [PartitionPrior(1.5, 8.0, 200.0), None]
-    x = np.array([np.log(1.2), np.log(7.5), 190.0, np.log(25.0), np.log(2.0),
-                  np.log(0.8), np.log(12.0), 300.0, np.log(15.0), np.log(3.3)])
+    x = np.array([np.log(1.2), np.log(7.5), 190.0, np.log(25.0), np.log(2.0), np.log(5.0),
+                  np.log(0.8), np.log(12.0), 300.0, np.log(15.0), np.log(3.3), np.log(14.0)])
     lo, hi = np.tile(_LOWER, 2), np.tile(_UPPER, 2)
     ours = problem.jacobian(x, priors, lo, hi)
     reference = approx_derivative(problem.residuals, x, method="3-point", args=(priors,))
@@ -242,8 +296,8 @@ def test_the_batched_search_costs_are_each_stacked_fits_residuals():
     problem = _Problem(welch.omega, dirs, outer_raos(h), rng.normal(size=(27, 3)), coh, np.full(3, 1e-3),
                        rng.uniform(0.2, 0.5, (27, 3)), rng.uniform(0.1, 0.3, (27, 3)), pairs, welch)
     priors = [PartitionPrior(1.5, 8.0, 200.0)]
-    x = np.array([[np.log(1.2), np.log(7.5), 190.0, np.log(25.0), np.log(2.0)]])
-    added = np.array([[np.log(hs), np.log(tp), d, np.log(spread), np.log(3.3)] for hs in (0.3, 1.0)
+    x = np.array([[np.log(1.2), np.log(7.5), 190.0, np.log(25.0), np.log(2.0), np.log(5.0)]])
+    added = np.array([[np.log(hs), np.log(tp), d, np.log(spread), np.log(3.3), np.log(9.0)] for hs in (0.3, 1.0)
                       for tp in (6.0, 14.0) for d in (0.0, 90.0, 330.0) for spread in (20.0, 35.0)])
     batched = problem.costs_with_added(x, priors, added)
     one_by_one = [0.5 * np.sum(problem.residuals(np.vstack([x, a]).ravel(), [*priors, None]) ** 2) for a in added]
@@ -622,8 +676,8 @@ def test_the_sea_refitted_through_a_named_lever_arm_loses_the_bias_the_arm_gave_
 def _window_estimate(prior, hs, tp, dir_from, std):
     from seatune.identification.sea_estimation import SeaEstimate
 
-    value = {"hs": hs, "tp": tp, "dir_from_deg": dir_from, "spread_deg": 20.0, "gamma": 3.3}
-    sd = {"hs": std * hs, "tp": std * tp, "dir_from_deg": 100 * std, "spread_deg": 1e3, "gamma": 1e3}
+    value = {"hs": hs, "tp": tp, "dir_from_deg": dir_from, "spread_deg": 20.0, "gamma": 3.3, "tail": 5.0}
+    sd = {"hs": std * hs, "tp": std * tp, "dir_from_deg": 100 * std, "spread_deg": 1e3, "gamma": 1e3, "tail": 1e3}
     return SeaEstimate([Partition(value, sd, prior)], [0], 1.0, 100, 0.0, 0.0)
 
 
@@ -708,7 +762,7 @@ def test_a_records_system_is_reported_as_absent_from_the_hindcast():
     from seatune.pipeline.sea import partition_rows
 
     hindcast = PartitionPrior(1.2, 7.0, 40.0)
-    moved = hindcast.moved(hindcast.mean() + np.log([1.2, 1.0, 1.0, 1.0, 1.0]), hindcast.std())
+    moved = hindcast.moved(hindcast.mean() + np.log([1.2, 1.0, 1.0, 1.0, 1.0, 1.0]), hindcast.std())
     record = PartitionPrior(0.7, 14.0, 250.0, in_hindcast=False)
     wind = _window_estimate(moved, 1.45, 7.1, 42.0, 0.05).partitions[0]
     swell = _window_estimate(None, 0.72, 13.8, 248.0, 0.1).partitions[0]

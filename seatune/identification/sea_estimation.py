@@ -5,8 +5,9 @@ The measured cross-spectral matrix Φ̂(ω) of the motion channels is matched by
     Φ(ω) = Σ_D H(ω, β_D) H(ω, β_D)ᴴ S(ω, D) ΔD                        (DESIGN §4; Nielsen 2006 eq. 3)
 
 with H the channel RAOs of the current loading and S a parametric sea of up to four partitions (JONSWAP in
-ω, cos-2s in direction; each Hs, Tp, coming-from direction, spread, γ). The hindcast is the prior of the
-partitions it holds; partitions it lacks are searched for and kept when the data ask for them.
+ω with its tail's exponent n free, cos-2s in direction; each Hs, Tp, coming-from direction, spread, γ, n). The
+hindcast is the prior of the partitions it holds; partitions it lacks are searched for and kept when the data ask
+for them.
 
 Choices (Nielsen's Bayesian wave-buoy analogy and the NetSSE spectral-residual method fit the same equation;
 neither fixes these):
@@ -21,8 +22,11 @@ neither fixes these):
 * RAO uncertainty: the model's spread of each residual over the prior design loadings (the loading prior's
   mean and ±√3σ per parameter) is added to its variance, so a roll autospectrum near an uncertain roll
   resonance cannot decide the sea. A floor (1 % of the channel's peak) keeps noise-only bins from steering.
+* Shape: n = 5 is JONSWAP, γ = 1 and n = 4λ + 1 Ochi–Hubble. Swells are narrower and steeper than JONSWAP: with
+  n held at 5, an Ochi–Hubble swell's tail was fitted up to 2.4× too high at a barge's roll resonance in the trough
+  below the wind sea, and identify's roll ω_n read off the admittance there came out 5 % low (blind bank).
 * Fit: maximum a posteriori by Gauss–Newton (scipy least_squares) with the hindcast partitions as Gaussian
-  priors (log Hs, log Tp, direction, log spread, log γ); covariance (JᵀJ)⁻¹ scaled by the reduced χ² when
+  priors (log Hs, log Tp, direction, log spread, log γ, log n); covariance (JᵀJ)⁻¹ scaled by the reduced χ² when
   the fit is worse than the noise model (model error the variance did not hold).
 * Missing partitions: a grid over (Tp, direction, Hs) of an added partition, its three best cells at least 90° apart
   refined; it is kept when, on the residuals the loading hardly changes (design spread < 0.15 of a log autospectrum,
@@ -46,30 +50,55 @@ from dataclasses import dataclass, field, replace
 from functools import cache
 
 import numpy as np
-from scipy import optimize, signal, special
+from scipy import interpolate, optimize, signal, special
 
-from seatune.physics.spectra import _peak_exponent, _pm_shape
+from seatune.physics.spectra import _peak_exponent
 
 TWO_PI = 2.0 * np.pi
-FIELDS = ("hs", "tp", "dir_from_deg", "spread_deg", "gamma")
+FIELDS = ("hs", "tp", "dir_from_deg", "spread_deg", "gamma", "tail")
+N_COORD = len(FIELDS)  # fitted coordinates per partition: log Hs, log Tp, direction, log spread, log γ, log n
+JONSWAP_TAIL = 5.0  # n of JONSWAP's ω⁻ⁿ tail; an (P, 5) x without the n column means it
+# a wind sea's tail lies in the equilibrium range, between Toba's ω⁻⁴ and Phillips's ω⁻⁵ (Donelan et al. 1985): n = 5
+# within e^±0.15. Freed as a swell's, it scattered ±15 % between windows and moved a heavily damped pitch mode on
+# the wind sea's flank by up to 3 % (blind bank, osv_clean_002)
+WIND_SEA_TAIL_LOG_STD = 0.15
 DIRS_FROM = np.arange(72) * 5.0  # the estimate's direction grid [deg, coming-from]
 
 
+def _tail_shape(u: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """u⁻ⁿ exp(−(n/4) u⁻⁴), u = ω/ω_p: peaked at u = 1 for every n; n = 5 is JONSWAP's (Pierson–Moskowitz's) shape,
+    n = 4λ + 1 Ochi–Hubble's single peak of shape λ (Ochi & Hubble 1976, eq. 1)."""
+    with np.errstate(over="ignore", divide="ignore"):
+        return np.exp(-0.25 * n * u**-4.0 - n * np.log(u))
+
+
 @cache
-def _jonswap_norm_table() -> tuple[np.ndarray, np.ndarray]:
-    """(ln γ, 16 ∫ g γ^r du) over the fitted γ range (1–7), u = ω/ω_p: JONSWAP = Hs²/ω_p · g γ^r / norm (the shape
-    physics/spectra.py's jonswap uses). Its adaptive quadrature per γ is too slow for a fit that moves γ
-    continuously, so the norm is tabulated once, on first use; linear in ln γ it is within 2e-6 of the integral."""
-    u = np.geomspace(0.2, 30.0, 6000)
-    log_gamma = np.linspace(0.0, np.log(7.0), 385)
-    integrand = _pm_shape(u) * np.exp(log_gamma[:, None] * _peak_exponent(u, 0.07, 0.09))
-    return log_gamma, 16.0 * np.trapezoid(integrand, u, axis=1)
+def _shape_norm_spline() -> interpolate.RectBivariateSpline:
+    """16 ∫ g_n γ^r du over the fitted γ (1–7) and n (3–30), u = ω/ω_p, g_n = `_tail_shape`, as a cubic spline in
+    (ln γ, ln n): the spectrum is Hs²/ω_p · g_n γ^r / norm. Quadrature per (γ, n) is too slow for a fit that moves
+    both continuously, so the norm is tabulated once, on first use (the tail beyond u = 30 analytically); a spline,
+    not a bilinear table, keeps the fit's derivatives continuous. Within 1e-6 of the integral between nodes."""
+    u = np.geomspace(0.2, 30.0, 4000)
+    log_gamma = np.linspace(0.0, np.log(7.0), 49)
+    log_n = np.linspace(np.log(3.0), np.log(30.0), 65)
+    peak = np.exp(log_gamma[:, None] * _peak_exponent(u, 0.07, 0.09))  # (nγ, nu)
+    norm = np.empty((log_gamma.size, log_n.size))
+    for j, n in enumerate(np.exp(log_n)):
+        norm[:, j] = 16.0 * (np.trapezoid(peak * _tail_shape(u, n), u, axis=1) + u[-1] ** (1.0 - n) / (n - 1.0))
+    return interpolate.RectBivariateSpline(log_gamma, log_n, norm)
+
+
+def _shape_norm(log_gamma: np.ndarray, log_n: np.ndarray) -> np.ndarray:
+    """16 ∫ g_n γ^r du at each (ln γ, ln n) (`_shape_norm_spline`)."""
+    return _shape_norm_spline()(log_gamma, log_n, grid=False)
 
 
 @dataclass(frozen=True)
 class PartitionPrior:
-    """A Gaussian prior of one partition in the fitted coordinates (log Hs, log Tp, direction, log spread, log γ);
-    an infinite std leaves that coordinate free."""
+    """A Gaussian prior of one partition in the fitted coordinates (log Hs, log Tp, direction, log spread, log γ,
+    log n); an infinite std leaves that coordinate free. n, the tail's exponent, is JONSWAP's 5 within a factor
+    e^±0.6: a hindcast gives no shape, and swells are narrower (an Ochi–Hubble swell of λ = 5 has n = 21); a wind
+    sea's within WIND_SEA_TAIL_LOG_STD."""
 
     hs: float
     tp: float
@@ -81,28 +110,30 @@ class PartitionPrior:
     dir_std_deg: float = 30.0
     spread_log_std: float = 0.5
     gamma_log_std: float = 0.5
+    tail: float = JONSWAP_TAIL
+    tail_log_std: float = 0.6
     in_hindcast: bool = True
 
     def mean(self) -> np.ndarray:
         return np.array([np.log(self.hs), np.log(self.tp), self.dir_from_deg, np.log(self.spread_deg),
-                         np.log(self.gamma)])
+                         np.log(self.gamma), np.log(self.tail)])
 
     def std(self) -> np.ndarray:
         return np.array([self.hs_log_std, self.tp_log_std, self.dir_std_deg, self.spread_log_std,
-                         self.gamma_log_std])
+                         self.gamma_log_std, self.tail_log_std])
 
     def moved(self, mean: np.ndarray, std: np.ndarray) -> PartitionPrior:
         """This prior with the fitted coordinates' mean and std replaced (the inverse of mean() and std())."""
         return replace(self, hs=float(np.exp(mean[0])), tp=float(np.exp(mean[1])), dir_from_deg=float(mean[2] % 360.0),
-                       spread_deg=float(np.exp(mean[3])), gamma=float(np.exp(mean[4])), hs_log_std=float(std[0]),
-                       tp_log_std=float(std[1]), dir_std_deg=float(std[2]), spread_log_std=float(std[3]),
-                       gamma_log_std=float(std[4]))
+                       spread_deg=float(np.exp(mean[3])), gamma=float(np.exp(mean[4])), tail=float(np.exp(mean[5])),
+                       hs_log_std=float(std[0]), tp_log_std=float(std[1]), dir_std_deg=float(std[2]),
+                       spread_log_std=float(std[3]), gamma_log_std=float(std[4]), tail_log_std=float(std[5]))
 
 
 @dataclass(frozen=True)
 class Partition:
     """An estimated partition: values and standard deviations of (hs [m], tp [s], dir_from_deg, spread_deg,
-    gamma), and the prior it came from (None: absent from the hindcast)."""
+    gamma, tail), and the prior it came from (None: absent from the hindcast)."""
 
     value: dict
     std: dict
@@ -162,27 +193,45 @@ def cross_spectra(x: np.ndarray, fs: float, segment_s: float) -> tuple[np.ndarra
 
 
 def partition_spectrum(omega: np.ndarray, dirs_from_deg: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """S(ω, D) [m²·s/rad²] of partitions x (P, 5) in fitted coordinates on ω × coming-from directions D.
+    """S(ω, D) [m²·s/rad²] of partitions x (P, 6) in fitted coordinates on ω × coming-from directions D ((P, 5):
+    JONSWAP's n = 5).
 
-    JONSWAP (σa 0.07, σb 0.09) normalised numerically to Hs²/16; cos-2s spreading with s = 2/σθ² − 1 (Kuik et al.
-    1988), normalised on the discrete direction grid."""
+    JONSWAP (σa 0.07, σb 0.09) with an ω⁻ⁿ tail (`_tail_shape`: n = 5 JONSWAP, γ = 1 Ochi–Hubble) normalised
+    numerically to Hs²/16; cos-2s spreading with s = 2/σθ² − 1 (Kuik et al. 1988), normalised on the discrete
+    direction grid."""
     s1, d = _partition_factors(omega, dirs_from_deg, x)
     return s1.T @ d
 
 
 def _partition_factors(omega: np.ndarray, dirs_from_deg: np.ndarray, x: np.ndarray):
     """Each partition's frequency spectrum (P, nω) and normalised spreading (P, nD): S = Σ_p s1_p ⊗ d_p."""
+    x = with_tail(x)
     hs, wp = np.exp(x[:, 0]), TWO_PI / np.exp(x[:, 1])
-    spread, gamma = np.radians(np.exp(x[:, 3])), np.exp(x[:, 4])
+    spread, gamma, n = np.radians(np.exp(x[:, 3])), np.exp(x[:, 4]), np.exp(x[:, 5])
     u = np.maximum(omega, 1e-9)[None, :] / wp[:, None]
-    norm = np.interp(x[:, 4], *_jonswap_norm_table())
-    s1 = _pm_shape(u) * gamma[:, None] ** _peak_exponent(u, 0.07, 0.09) * (hs**2 / (wp * norm))[:, None]  # (P, nω)
+    norm = _shape_norm(x[:, 4], x[:, 5])
+    s1 = (_tail_shape(u, n[:, None]) * gamma[:, None] ** _peak_exponent(u, 0.07, 0.09)
+          * (hs**2 / (wp * norm))[:, None])  # (P, nω)
     s = np.maximum(2.0 / spread**2 - 1.0, 0.0)
     theta = np.radians(dirs_from_deg[None, :] - x[:, 2:3])
     d = np.abs(np.cos(0.5 * theta)) ** (2.0 * s[:, None])  # cos-2s, unnormalised; |·| makes it 2π-periodic
     d_dir = TWO_PI / dirs_from_deg.size
     d /= np.maximum(d.sum(axis=1, keepdims=True), 1e-300) * d_dir
     return s1, d
+
+
+def with_tail(x: np.ndarray) -> np.ndarray:
+    """Partitions x in the fitted coordinates with the tail's ln n: (P, 5) → JONSWAP's n = 5 appended."""
+    x = np.atleast_2d(np.asarray(x, dtype=float))
+    return x if x.shape[1] == N_COORD else np.column_stack([x, np.full(len(x), np.log(JONSWAP_TAIL))])
+
+
+def table_coordinates(part) -> np.ndarray:
+    """Partitions given by columns (sea_states.parquet's hs, tp, dir_from_deg, spread_deg, gamma, tail) in the fitted
+    coordinates (P, N_COORD); without a tail column (a table written before n was fitted): JONSWAP's."""
+    cols = [np.log(part["hs"]), np.log(part["tp"]), part["dir_from_deg"], np.log(part["spread_deg"]),
+            np.log(part["gamma"])]
+    return with_tail(np.column_stack(cols + ([np.log(part["tail"])] if "tail" in part else [])))
 
 
 def outer_raos(h: np.ndarray) -> np.ndarray:
@@ -241,7 +290,7 @@ class _Problem:
         return np.log(auto), cross / np.sqrt(auto[..., i] * auto[..., j])
 
     def residuals(self, x_flat: np.ndarray, priors: list[PartitionPrior | None]) -> np.ndarray:
-        x = x_flat.reshape(-1, 5)
+        x = x_flat.reshape(-1, N_COORD)
         wave = partition_spectrum(self.omega, self.dirs, x)
         return np.concatenate([self.data_residuals(self.at_bins(model_cross_spectra(self.g, wave))),
                                prior_residuals(x, priors).ravel()])
@@ -257,20 +306,20 @@ class _Problem:
 
     def jacobian(self, x_flat: np.ndarray, priors: list[PartitionPrior | None], lower, upper) -> np.ndarray:
         """Forward differences of `residuals`, batched: Φ is linear in the spectrum S = Σ_p s1_p ⊗ d_p, and a step
-        in a partition's Hs, Tp or γ changes its frequency spectrum s1_p only (ΔΦ = Δs1_p · d_p G), in its
+        in a partition's Hs, Tp, γ or n changes its frequency spectrum s1_p only (ΔΦ = Δs1_p · d_p G), in its
         direction or spread its spreading d_p only (ΔΦ = s1_p · Δd_p G): 3 products per partition with the RAOs'
         G = H Hᴴ instead of a whole residual evaluation per column."""
-        x = x_flat.reshape(-1, 5)
+        x = x_flat.reshape(-1, N_COORD)
         n_part = len(x)
         step = 1.49e-8 * np.maximum(1.0, np.abs(x_flat))  # √ε relative, as scipy's 2-point scheme
         step = np.where(x_flat + step > upper, -step, step)
-        moved = np.repeat(x, 5, axis=0)  # row q = 5p + c: partition p with coordinate c moved
-        moved[np.arange(x.size), np.tile(np.arange(5), n_part)] += step
+        moved = np.repeat(x, N_COORD, axis=0)  # row q = N_COORD p + c: partition p with coordinate c moved
+        moved[np.arange(x.size), np.tile(np.arange(N_COORD), n_part)] += step
         s1_0, d_0 = _partition_factors(self.omega, self.dirs, x)
         s1, d = _partition_factors(self.omega, self.dirs, moved)
-        base = np.repeat(np.arange(n_part), 5)
-        in_freq = np.flatnonzero(np.tile([True, True, False, False, True], n_part))  # Hs, Tp, γ
-        in_dir = np.flatnonzero(np.tile([False, False, True, True, False], n_part))  # direction, spread
+        base = np.repeat(np.arange(n_part), N_COORD)
+        in_freq = np.flatnonzero(np.tile([True, True, False, False, True, True], n_part))  # Hs, Tp, γ, n
+        in_dir = np.flatnonzero(np.tile([False, False, True, True, False, False], n_part))  # direction, spread
         scale = TWO_PI / self.g.shape[1]
         q = d_0 @ self.g  # (nω, P, nch²): each partition's spreading through G
         phi0 = (s1_0.T[:, None, :] @ q)[:, 0, :] * scale
@@ -291,9 +340,9 @@ class _Problem:
         return jac
 
     def costs_with_added(self, x: np.ndarray, priors: list[PartitionPrior | None], added: np.ndarray) -> np.ndarray:
-        """½Σr² of the partitions x (P, 5) with their priors and one free partition (no prior) more, for each row of
-        `added` (n, 5) in turn: (n,), as `residuals` of each stacked (x, added row). Φ is linear in the spectrum, so
-        the added partitions' Φ come from one batched product on top of x's."""
+        """½Σr² of the partitions x (P, N_COORD) with their priors and one free partition (no prior) more, for each
+        row of `added` (n, N_COORD) in turn: (n,), as `residuals` of each stacked (x, added row). Φ is linear in the
+        spectrum, so the added partitions' Φ come from one batched product on top of x's."""
         phi_x = model_cross_spectra(self.g, partition_spectrum(self.omega, self.dirs, x))
         s1, _ = _partition_factors(self.omega, self.dirs, added)
         _, first, which = np.unique(added[:, 2:4], axis=0, return_index=True, return_inverse=True)
@@ -317,21 +366,25 @@ class _Problem:
 
 # a partition the hindcast lacks: weak priors (Hs ~ 0.5 m × e^±1.5, Tp ~ 12 s × e^±0.4), direction free
 # Hs, Tp, direction, spread, γ of an added partition, and Tp and direction once more: they exist only under the
-# alternative and are maximised over a grid, which inflates the null's likelihood ratio (Davies 1987)
+# alternative and are maximised over a grid, which inflates the null's likelihood ratio (Davies 1987). The tail's n
+# is not counted: its prior holds it (as a hindcast partition's), and γ and n share the one peak width.
 N_PARAMS_ADDED = 7
-_FREE_MEAN = np.array([np.log(0.5), np.log(12.0), 0.0, np.log(20.0), np.log(3.3)])
-_FREE_STD = np.array([1.5, 0.4, np.inf, 0.5, 0.5])
-_LOWER = np.array([np.log(0.02), np.log(3.0), -np.inf, np.log(4.0), np.log(1.0)])
-_UPPER = np.array([np.log(15.0), np.log(25.0), np.inf, np.log(80.0), np.log(7.0)])
+_FREE_MEAN = np.array([np.log(0.5), np.log(12.0), 0.0, np.log(20.0), np.log(3.3), np.log(JONSWAP_TAIL)])
+_FREE_STD = np.array([1.5, 0.4, np.inf, 0.5, 0.5, 0.6])
+# n ≥ 4: no sea's tail is fatter than the equilibrium range's ω⁻⁴ (Toba 1973). Allowed to 3, an added swell's tail
+# took up a loading's RAO error (blind bank, barge_clean_003 with the YAML's LCG 1.4 m off: n 3.1–3.5, Hs +19…+35 %)
+_LOWER = np.array([np.log(0.02), np.log(3.0), -np.inf, np.log(4.0), np.log(1.0), np.log(4.0)])
+_UPPER = np.array([np.log(15.0), np.log(25.0), np.inf, np.log(80.0), np.log(7.0), np.log(30.0)])
 
 
 def prior_std(priors: list[PartitionPrior | None]) -> np.ndarray:
-    """Each partition's prior standard deviations (P, 5); the weak free prior's for one absent from the hindcast."""
+    """Each partition's prior standard deviations (P, N_COORD); the weak free prior's for one absent from the
+    hindcast."""
     return np.array([p.std() if p is not None else _FREE_STD for p in priors])
 
 
 def prior_residuals(x: np.ndarray, priors: list[PartitionPrior | None]) -> np.ndarray:
-    """Each partition's offset from its prior in the prior's standard deviations (P, 5), the direction signed; a
+    """Each partition's offset from its prior in the prior's standard deviations (P, N_COORD), the direction signed; a
     partition absent from the hindcast (None) against the weak free prior, without a direction term."""
     mean = np.array([p.mean() if p is not None else _FREE_MEAN for p in priors])
     std = prior_std(priors)
@@ -352,8 +405,9 @@ def _search_added(problem: _Problem, x: np.ndarray, priors, min_hs: float, start
     """Starting points of an added partition: the best cells of a (Tp, direction, Hs) grid with the others
     fixed, at least 90° apart in direction (the heave/pitch fore–aft mirror is a second minimum), and the splits
     of broad partitions (`_split_starts`)."""
-    grid = np.array([[np.log(hs), np.log(tp), d, np.log(20.0), np.log(3.3)] for tp in (5.0, 7.0, 9.5, 12.0, 15.0, 19.0)
-                     for d in np.arange(0.0, 360.0, 30.0) for hs in (max(min_hs, 0.3), 1.0)])
+    grid = np.array([[np.log(hs), np.log(tp), d, np.log(20.0), np.log(3.3), np.log(JONSWAP_TAIL)]
+                     for tp in (5.0, 7.0, 9.5, 12.0, 15.0, 19.0) for d in np.arange(0.0, 360.0, 30.0)
+                     for hs in (max(min_hs, 0.3), 1.0)])
     chosen = []
     for k in np.argsort(problem.costs_with_added(x, priors, grid), kind="stable"):
         d = float(grid[k, 2])
@@ -428,7 +482,7 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
     x_hindcast = np.array([p.mean() for p in hindcast])
     cost_hindcast = 0.5 * float(np.sum(problem.residuals(x_hindcast.ravel(), hindcast) ** 2))
     fit = _fit(problem, x_prior, list(priors))
-    x, used = fit.x.reshape(-1, 5), list(priors)
+    x, used = fit.x.reshape(-1, N_COORD), list(priors)
     # a wave system must be seen where the loading hardly changes the response (design spread of the log
     # autospectrum < 0.15: heave and pitch, away from the roll resonance they share through coupling), not
     # only where an uncertain resonance could explain it
@@ -450,36 +504,37 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
         cand_priors = [*used, None]
         trial = min((_fit(problem, start, cand_priors) for start in _search_added(problem, x, used, min_hs)),
                     key=lambda f: f.cost)
-        hs_new = float(np.exp(trial.x.reshape(-1, 5)[-1, 0]))
-        if evidence(fit, trial) <= penalty or hs_new < min_hs or _shape_correction(trial.x.reshape(-1, 5)):
+        hs_new = float(np.exp(trial.x.reshape(-1, N_COORD)[-1, 0]))
+        if evidence(fit, trial) <= penalty or hs_new < min_hs or _shape_correction(trial.x.reshape(-1, N_COORD)):
             break
-        fit, x, used = trial, trial.x.reshape(-1, 5), cand_priors
+        fit, x, used = trial, trial.x.reshape(-1, N_COORD), cand_priors
     n_given = len(priors)
     for k in reversed([i for i, p in enumerate(priors) if not p.in_hindcast]):  # a record's system: kept as if searched
         keep = [i for i in range(len(used)) if i != k]
         trial = _fit(problem, x[keep], [used[i] for i in keep])
         if evidence(trial, fit) <= penalty or np.exp(x[k, 0]) < min_hs:
-            fit, x, used, n_given = trial, trial.x.reshape(-1, 5), [used[i] for i in keep], n_given - 1
+            fit, x, used, n_given = trial, trial.x.reshape(-1, N_COORD), [used[i] for i in keep], n_given - 1
     for k in reversed(range(n_given, len(used))):  # prune: an added system a later one made redundant
         if len(used) <= n_given + 1:
             break
         keep = [i for i in range(len(used)) if i != k]
         trial = _fit(problem, x[keep], [used[i] for i in keep])
         if evidence(trial, fit) <= penalty:
-            fit, x, used = trial, trial.x.reshape(-1, 5), [used[i] for i in keep]
+            fit, x, used = trial, trial.x.reshape(-1, N_COORD), [used[i] for i in keep]
     dof = max(problem.n_data - x.size, 1)
     chi2 = 2.0 * fit.cost / dof
     try:
         cov = np.linalg.pinv(fit.jac.T @ fit.jac) * max(1.0, chi2)
     except np.linalg.LinAlgError:
         cov = np.full((x.size, x.size), np.nan)
-    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None)).reshape(-1, 5)
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None)).reshape(-1, N_COORD)
     parts = []
     for xp, sp in zip(x, sd, strict=True):
         value = {"hs": float(np.exp(xp[0])), "tp": float(np.exp(xp[1])), "dir_from_deg": float(xp[2] % 360.0),
-                 "spread_deg": float(np.exp(xp[3])), "gamma": float(np.exp(xp[4]))}
+                 "spread_deg": float(np.exp(xp[3])), "gamma": float(np.exp(xp[4])), "tail": float(np.exp(xp[5]))}
         std = {"hs": value["hs"] * float(sp[0]), "tp": value["tp"] * float(sp[1]), "dir_from_deg": float(sp[2]),
-               "spread_deg": value["spread_deg"] * float(sp[3]), "gamma": value["gamma"] * float(sp[4])}
+               "spread_deg": value["spread_deg"] * float(sp[3]), "gamma": value["gamma"] * float(sp[4]),
+               "tail": value["tail"] * float(sp[5])}
         parts.append(Partition(value, std, None))
     phi_fit = problem.at_bins(model_cross_spectra(g, partition_spectrum(model_omega, dirs_from_deg, x)))
     var_m = np.trapezoid(np.real(np.einsum("wjj->wj", phi_measured)), omega, axis=0)
@@ -493,9 +548,9 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
 
 
 POOL_MIN_WINDOWS = 3  # other windows with a matched partition needed to pool a hindcast partition's error
-# the pooled prior's narrowest std per coordinate (log Hs, log Tp, direction [deg], log spread, log γ): what the
-# windows' shared error is known to at best, whatever their number
-POOL_FLOOR = np.array([0.03, 0.02, 3.0, 0.1, 0.1])
+# the pooled prior's narrowest std per coordinate (log Hs, log Tp, direction [deg], log spread, log γ, log n): what
+# the windows' shared error is known to at best, whatever their number
+POOL_FLOOR = np.array([0.03, 0.02, 3.0, 0.1, 0.1, 0.1])
 
 
 def _random_effects(d: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -527,7 +582,7 @@ def pooled_priors(priors: list[list[PartitionPrior]], estimates: list[SeaEstimat
     windows' scatter τ² beyond their own errors is estimated, so an error that drifts keeps the prior wide). Window w
     then gets the prior mean + b₋w with std √(τ² + se²(b₋w)), floored at POOL_FLOOR, never wider than before."""
     n_win = len(priors)
-    offsets = {}  # (n priors, slot) → list of (window, d (5,), v (5,))
+    offsets = {}  # (n priors, slot) → list of (window, d (N_COORD,), v (N_COORD,))
     for w, (pr, est) in enumerate(zip(priors, estimates, strict=True)):
         if est is None:
             continue
@@ -546,7 +601,7 @@ def pooled_priors(priors: list[list[PartitionPrior]], estimates: list[SeaEstimat
     out = [list(pr) for pr in priors]
     for (n_pr, k), rows in offsets.items():
         wins = np.array([r[0] for r in rows])
-        d, v = np.array([r[1] for r in rows]), np.array([r[2] for r in rows])  # (n, 5)
+        d, v = np.array([r[1] for r in rows]), np.array([r[2] for r in rows])  # (n, N_COORD)
         ws, tau2 = _random_effects(d, v)
         for w_idx in range(n_win):
             pr = priors[w_idx]
@@ -566,13 +621,14 @@ def pooled_priors(priors: list[list[PartitionPrior]], estimates: list[SeaEstimat
 
 def _coordinates(members: list[Partition]) -> tuple[np.ndarray, np.ndarray]:
     """Partitions of one sea in the fitted coordinates (log Hs of them together, and log Tp, direction, log spread,
-    log γ of the strongest) and their standard deviations."""
+    log γ, log n of the strongest) and their standard deviations."""
     top = max(members, key=lambda p: p.value["hs"])
     hs = partitions_hs(members)
     value = np.array([np.log(hs), np.log(top.value["tp"]), top.value["dir_from_deg"], np.log(top.value["spread_deg"]),
-                      np.log(top.value["gamma"])])
+                      np.log(top.value["gamma"]), np.log(top.value["tail"])])
     std = np.array([top.std["hs"] / hs, top.std["tp"] / top.value["tp"], top.std["dir_from_deg"],
-                    top.std["spread_deg"] / top.value["spread_deg"], top.std["gamma"] / top.value["gamma"]])
+                    top.std["spread_deg"] / top.value["spread_deg"], top.std["gamma"] / top.value["gamma"],
+                    top.std["tail"] / top.value["tail"]])
     return value, std
 
 
@@ -594,13 +650,13 @@ def record_priors(estimates: list[SeaEstimate | None]) -> list[list[PartitionPri
     RECORD_DIR_DEG in direction enters the random-effects mean of pooled_priors (DerSimonian & Laird 1986,
     eqs. 1–3) when at least POOL_MIN_WINDOWS others have one; std √(τ² + se²), floored at POOL_FLOOR. The window's
     second fit starts from it and keeps it only by the test a searched system passes."""
-    added = []  # per window: (value (n, 5), variance (n, 5)) of its systems absent from the hindcast
+    added = []  # per window: (value (n, N_COORD), variance (n, N_COORD)) of its systems absent from the hindcast
     for est in estimates:
         rows = [] if est is None else [
             _coordinates(members) for members in _systems(est) if all(p.prior is None for p in members)]
-        added.append((np.array([r[0] for r in rows]).reshape(-1, 5),
+        added.append((np.array([r[0] for r in rows]).reshape(-1, N_COORD),
                       np.array([np.where(np.isfinite(r[1]) & (r[1] > 0), r[1] ** 2, np.inf) for r in rows]
-                               ).reshape(-1, 5)))
+                               ).reshape(-1, N_COORD)))
     out: list[list[PartitionPrior]] = [[] for _ in estimates]
     for w, (own, _) in enumerate(added):
         for a in own:
@@ -684,9 +740,9 @@ HP01_KAPPA = 1.0  # HP01 eq. 9's spread factor, Hasselmann et al. (1996)'s value
 
 def _peak_and_spread(value: dict) -> tuple[np.ndarray, float]:
     """A partition's peak in the (f cos θ, f sin θ) plane [Hz] and its spread there, the variance E|f|² − |E f|²
-    [Hz²] of its JONSWAP × cos-2s spectrum (cos-2s's first circular moment s/(s + 1))."""
+    [Hz²] of its spectrum × cos-2s (cos-2s's first circular moment s/(s + 1))."""
     u = np.geomspace(0.2, 30.0, 3000)
-    w = _pm_shape(u) * value["gamma"] ** _peak_exponent(u, 0.07, 0.09)
+    w = _tail_shape(u, value.get("tail", JONSWAP_TAIL)) * value["gamma"] ** _peak_exponent(u, 0.07, 0.09)
     m1, m2 = np.trapezoid(w * u, u) / np.trapezoid(w, u), np.trapezoid(w * u**2, u) / np.trapezoid(w, u)
     s = max(2.0 / np.radians(value["spread_deg"]) ** 2 - 1.0, 0.0)
     fp, theta = 1.0 / value["tp"], np.radians(value["dir_from_deg"])

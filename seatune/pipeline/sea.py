@@ -36,6 +36,8 @@ SEA_UNITS = {
     "spread_deg_std": "deg",
     "gamma": "dimensionless",
     "gamma_std": "dimensionless",
+    "tail": "dimensionless",  # n of the spectrum's ω⁻ⁿ tail (5: JONSWAP)
+    "tail_std": "dimensionless",
     "heading_deg": "deg",
     "chi2_reduced": "dimensionless",
     "hindcast_misfit": "dimensionless",
@@ -101,13 +103,13 @@ def spectrum_partitions(S2d: np.ndarray, omega: np.ndarray, dirs_from: np.ndarra
 
 
 def hindcast_priors(hc, row, lat, lon, unc, settings):
-    """The window's hindcast partitions as PartitionPriors (2-D spectrum: split at the trough; partitions
-    wind_*/swell_*; else the bulk Hs/Tp/direction as one partition)."""
-    from seatune.identification.sea_estimation import PartitionPrior
+    """The window's hindcast partitions as PartitionPriors (2-D spectrum: split at the trough, the higher-frequency
+    one of two the wind sea; partitions wind_*/swell_*; else the bulk Hs/Tp/direction as one partition)."""
+    from seatune.identification.sea_estimation import WIND_SEA_TAIL_LOG_STD, PartitionPrior
     from seatune.io.hindcast_readers import at_track
     from seatune.pipeline.identify import window_wave_spectrum
 
-    def prior(hs, tp, d, spread=25.0):
+    def prior(hs, tp, d, spread=25.0, wind=False):
         return PartitionPrior(
             hs=max(float(hs), 0.05),
             tp=float(tp),
@@ -116,6 +118,7 @@ def hindcast_priors(hc, row, lat, lon, unc, settings):
             hs_log_std=max(unc.hs_rel_std, settings.hs_rel_std),
             tp_log_std=max(unc.tp_std_s / float(tp), settings.tp_rel_std),
             dir_std_deg=max(unc.dir_std_deg, settings.dir_std_deg),
+            **({"tail_log_std": WIND_SEA_TAIL_LOG_STD} if wind else {}),
         )
 
     if hc.spectra is not None:
@@ -123,7 +126,7 @@ def hindcast_priors(hc, row, lat, lon, unc, settings):
         S2d, dirs, _ = window_wave_spectrum(hc, row, lat, lon, omega)
         parts = spectrum_partitions(S2d, omega, np.asarray(dirs, dtype=float))
         if parts:
-            return [prior(*p) for p in parts]
+            return [prior(*p, wind=len(parts) > 1 and k == len(parts) - 1) for k, p in enumerate(parts)]
     mid = row.start + (row.end - row.start) / 2
     track = at_track(hc, [mid], lat, lon).iloc[0]
     parts = []
@@ -134,7 +137,7 @@ def hindcast_priors(hc, row, lat, lon, unc, settings):
             mwp = track.get(f"{name}_mwp", np.nan)
             tp = 1.1 * mwp if mwp is not None and np.isfinite(mwp) else np.nan  # Tm−1,0 ≈ 0.9 Tp (JONSWAP)
         if hs is not None and np.isfinite(hs) and hs > 0.05 and np.isfinite(tp) and d is not None and np.isfinite(d):
-            parts.append(prior(hs, tp, d, 30.0 if name == "wind" else 15.0))
+            parts.append(prior(hs, tp, d, 30.0 if name == "wind" else 15.0, wind=name == "wind"))
     return parts or [prior(row.hs, row.tp, row.dir_from_deg)]
 
 
@@ -290,6 +293,8 @@ def estimate_windows(vessel, design, channels, inputs, tasks, settings) -> list:
 def partition_rows(window_id: str, est, heading_deg: float, channels, priors, fitted_priors) -> list[dict]:
     """Rows of sea_states.parquet; `fitted_priors`: the priors the fit used in place of the hindcast's `priors`
     (pooled, or the same), the hindcast columns still the hindcast's."""
+    from seatune.identification.sea_estimation import FIELDS
+
     hindcast_of = {id(f): p for f, p in zip(fitted_priors[: len(priors)], priors, strict=True)}  # then the record's
     order = sorted(range(len(est.partitions)), key=lambda k: est.partitions[k].value["tp"])
     shortest = est.partitions[order[0]].value["tp"]
@@ -315,8 +320,8 @@ def partition_rows(window_id: str, est, heading_deg: float, channels, priors, fi
                 "hindcast_hs": pr.hs if pr else np.nan,
                 "hindcast_tp": pr.tp if pr else np.nan,
                 "hindcast_dir_from_deg": pr.dir_from_deg if pr else np.nan,
-                **{f: p.value[f] for f in ("hs", "tp", "dir_from_deg", "spread_deg", "gamma")},
-                **{f"{f}_std": p.std[f] for f in ("hs", "tp", "dir_from_deg", "spread_deg", "gamma")},
+                **{f: p.value[f] for f in FIELDS},
+                **{f"{f}_std": p.std[f] for f in FIELDS},
                 "heading_deg": heading_deg,
                 "chi2_reduced": est.chi2_reduced,
                 "hindcast_misfit": est.cost_hindcast,
@@ -688,21 +693,13 @@ def sea_for_tuning(run) -> pd.DataFrame | None:
 
 def estimated_wave_spectrum(sea: pd.DataFrame, window_id: str, omega: np.ndarray):
     """S(ω, D) [m²·s/rad²] of the window's estimated partitions on `omega` × DIRS_FROM, or None."""
-    from seatune.identification.sea_estimation import partition_spectrum
+    from seatune.identification.sea_estimation import partition_spectrum, table_coordinates
 
     part = sea[sea["window_id"] == str(window_id)]
     if part.empty:
         return None
-    x = np.column_stack(
-        [
-            np.log(part["hs"]),
-            np.log(part["tp"]),
-            part["dir_from_deg"],
-            np.log(part["spread_deg"]),
-            np.log(part["gamma"]),
-        ]
-    )
-    return partition_spectrum(np.asarray(omega, dtype=float), DIRS_FROM, x), DIRS_FROM.copy(), "estimated from motions"
+    return (partition_spectrum(np.asarray(omega, dtype=float), DIRS_FROM, table_coordinates(part)),
+            DIRS_FROM.copy(), "estimated from motions")
 
 
 @dataclass(frozen=True)

@@ -190,16 +190,18 @@ def sea_section(inp: ReportInputs) -> str | None:
                     "radius] and the direction the waves come from [deg, north up, clockwise]; o: estimated "
                     "partitions with Hs, x: the hindcast's partitions.", "estimated directional spectra")
     t = pd.DataFrame({"window": "W" + sea["window_id"].astype(str), "system": sea["system"], "kind": sea["kind"],
-                      "in hindcast": sea["in_hindcast"], "hindcast Hs": sea["hindcast_hs"], "Hs": sea["hs"],
+                      "hindcast Hs": sea["hindcast_hs"], "Hs": sea["hs"],
                       "± Hs": sea["hs_std"], "hindcast Tp": sea["hindcast_tp"], "Tp": sea["tp"],
                       "± Tp": sea["tp_std"], "hindcast from": sea["hindcast_dir_from_deg"],
                       "from": sea["dir_from_deg"], "± from": sea["dir_from_deg_std"], "spread": sea["spread_deg"],
-                      "γ": sea["gamma"]})
+                      "γ / n": [f"{g:.1f} / {n:.0f}" for g, n in zip(sea["gamma"], sea["tail"] if "tail" in sea
+                                                                       else np.full(len(sea), 5.0), strict=True)]})
     units = {"hindcast Hs": "m", "Hs": "m", "± Hs": "m", "hindcast Tp": "s", "Tp": "s", "± Tp": "s",
              "hindcast from": "deg", "from": "deg", "± from": "deg", "spread": "deg"}
     body += H.table(t, units, caption="Partitions of the estimated sea (sea_states.parquet): the hindcast's value "
                     "beside the estimate and its standard deviation; a system absent from the hindcast has no "
-                    "hindcast value", digits=3, row_class=lambda r: "" if r["in hindcast"] else "rejected")
+                    "hindcast value; γ / n: the peak enhancement and the exponent of the ω⁻ⁿ tail (JONSWAP: n = 5)",
+                    digits=3, row_class=lambda r: "rejected" if pd.isna(r["hindcast Hs"]) else "")
     refit = inp.sea_refit_hs
     if refit is not None and not refit.empty:
         t = pd.DataFrame({"window": "W" + refit["window_id"].astype(str), "Hs": refit["hs"],

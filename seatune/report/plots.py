@@ -459,7 +459,7 @@ def residual_maps(rows: pd.DataFrame, channels: list[str], title_after: str) -> 
 def sea_polars(sea: pd.DataFrame, max_windows: int = 6) -> Figure:
     """Per window, the estimated directional spectrum S(f, D) (period rings, waves coming from, north up,
     clockwise), the estimated partitions (o, labelled Hs) and the hindcast's (x)."""
-    from seatune.identification.sea_estimation import DIRS_FROM, partition_spectrum
+    from seatune.identification.sea_estimation import DIRS_FROM, partition_spectrum, table_coordinates
 
     ids = list(dict.fromkeys(sea["window_id"]))[:max_windows]
     ncols = min(3, len(ids))
@@ -472,9 +472,7 @@ def sea_polars(sea: pd.DataFrame, max_windows: int = 6) -> Figure:
         ax = fig.add_subplot(nrows, ncols, k + 1, projection="polar")
         ax.set_theta_zero_location("N")
         ax.set_theta_direction(-1)
-        x = np.column_stack([np.log(part["hs"]), np.log(part["tp"]), part["dir_from_deg"],
-                             np.log(part["spread_deg"]), np.log(part["gamma"])])
-        s = partition_spectrum(omega, DIRS_FROM, x)  # (n periods, n directions)
+        s = partition_spectrum(omega, DIRS_FROM, table_coordinates(part))  # (n periods, n directions)
         th = np.radians(np.r_[DIRS_FROM, 360.0])
         ax.contourf(th, periods, np.c_[s, s[:, :1]], levels=12, cmap="Blues")
         ax.plot(np.radians(part["dir_from_deg"]), part["tp"], "o", color="C3", ms=5)
