@@ -59,7 +59,7 @@ FIELDS = ("hs", "tp", "dir_from_deg", "spread_deg", "gamma", "tail")
 N_COORD = len(FIELDS)  # fitted coordinates per partition: log Hs, log Tp, direction, log spread, log γ, log n
 JONSWAP_TAIL = 5.0  # n of JONSWAP's ω⁻ⁿ tail; an (P, 5) x without the n column means it
 # a wind sea's tail lies in the equilibrium range, between Toba's ω⁻⁴ and Phillips's ω⁻⁵ (Donelan et al. 1985): n = 5
-# within e^±0.15 (with a swell's e^±0.6 the bank's wind seas read n 4.0–5.8 against their true 5)
+# within e^±0.15 (with a swell's e^±0.6, osv_clean_002's wind sea read n 4.0–5.8 against its true 5)
 WIND_SEA_TAIL_LOG_STD = 0.15
 DIRS_FROM = np.arange(72) * 5.0  # the estimate's direction grid [deg, coming-from]
 
