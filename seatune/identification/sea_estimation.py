@@ -225,12 +225,15 @@ def with_tail(x: np.ndarray) -> np.ndarray:
     return x if x.shape[1] == N_COORD else np.column_stack([x, np.full(len(x), np.log(JONSWAP_TAIL))])
 
 
+def _coordinate(values, field: str):
+    """One field's values in the fitted coordinate: the direction as it is, every other field's logarithm."""
+    return values[field] if field == "dir_from_deg" else np.log(values[field])
+
+
 def table_coordinates(part) -> np.ndarray:
     """Partitions given by columns (sea_states.parquet's hs, tp, dir_from_deg, spread_deg, gamma, tail) in the fitted
     coordinates (P, N_COORD); without a tail column (a table written before n was fitted): JONSWAP's."""
-    cols = [np.log(part["hs"]), np.log(part["tp"]), part["dir_from_deg"], np.log(part["spread_deg"]),
-            np.log(part["gamma"])]
-    return with_tail(np.column_stack(cols + ([np.log(part["tail"])] if "tail" in part else [])))
+    return with_tail(np.column_stack([_coordinate(part, f) for f in FIELDS if f in part]))
 
 
 def outer_raos(h: np.ndarray) -> np.ndarray:
@@ -529,11 +532,9 @@ def estimate_sea(omega: np.ndarray, phi_measured: np.ndarray, nu: float, dirs_fr
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None)).reshape(-1, N_COORD)
     parts = []
     for xp, sp in zip(x, sd, strict=True):
-        value = {"hs": float(np.exp(xp[0])), "tp": float(np.exp(xp[1])), "dir_from_deg": float(xp[2] % 360.0),
-                 "spread_deg": float(np.exp(xp[3])), "gamma": float(np.exp(xp[4])), "tail": float(np.exp(xp[5]))}
-        std = {"hs": value["hs"] * float(sp[0]), "tp": value["tp"] * float(sp[1]), "dir_from_deg": float(sp[2]),
-               "spread_deg": value["spread_deg"] * float(sp[3]), "gamma": value["gamma"] * float(sp[4]),
-               "tail": value["tail"] * float(sp[5])}
+        value = {f: float(c % 360.0) if f == "dir_from_deg" else float(np.exp(c))
+                 for f, c in zip(FIELDS, xp, strict=True)}
+        std = {f: float(c) if f == "dir_from_deg" else value[f] * float(c) for f, c in zip(FIELDS, sp, strict=True)}
         parts.append(Partition(value, std, None))
     phi_fit = problem.at_bins(model_cross_spectra(g, partition_spectrum(model_omega, dirs_from_deg, x)))
     var_m = np.trapezoid(np.real(np.einsum("wjj->wj", phi_measured)), omega, axis=0)
@@ -622,13 +623,9 @@ def _coordinates(members: list[Partition]) -> tuple[np.ndarray, np.ndarray]:
     """Partitions of one sea in the fitted coordinates (log Hs of them together, and log Tp, direction, log spread,
     log γ, log n of the strongest) and their standard deviations."""
     top = max(members, key=lambda p: p.value["hs"])
-    hs = partitions_hs(members)
-    value = np.array([np.log(hs), np.log(top.value["tp"]), top.value["dir_from_deg"], np.log(top.value["spread_deg"]),
-                      np.log(top.value["gamma"]), np.log(top.value["tail"])])
-    std = np.array([top.std["hs"] / hs, top.std["tp"] / top.value["tp"], top.std["dir_from_deg"],
-                    top.std["spread_deg"] / top.value["spread_deg"], top.std["gamma"] / top.value["gamma"],
-                    top.std["tail"] / top.value["tail"]])
-    return value, std
+    values = top.value | {"hs": partitions_hs(members)}
+    std = [top.std[f] if f == "dir_from_deg" else top.std[f] / values[f] for f in FIELDS]  # of a log: relative
+    return np.array([_coordinate(values, f) for f in FIELDS]), np.array(std)
 
 
 def _systems(est: SeaEstimate) -> list[list[Partition]]:
@@ -678,7 +675,6 @@ def record_priors(estimates: list[SeaEstimate | None]) -> list[list[PartitionPri
             std = np.where(s > 0, np.maximum(se, POOL_FLOOR), np.inf)
             out[w].append(PartitionPrior(hs=1.0, tp=10.0, dir_from_deg=0.0, in_hindcast=False).moved(b, std))
     return out
-
 
 
 def profile_minimum(values: np.ndarray, costs: np.ndarray) -> tuple[float, float, float]:

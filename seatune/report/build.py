@@ -12,6 +12,7 @@ import pandas as pd
 from seatune.diagnosis.effects import own_parameters_text
 from seatune.diagnosis.select import HOLDOUT_MIN
 from seatune.identification.natural_frequency import primary_natural_frequencies
+from seatune.identification.sea_estimation import table_coordinates
 from seatune.report import html as H
 from seatune.report import plots as P
 from seatune.report.inputs import ReportInputs
@@ -194,8 +195,8 @@ def sea_section(inp: ReportInputs) -> str | None:
                       "± Hs": sea["hs_std"], "hindcast Tp": sea["hindcast_tp"], "Tp": sea["tp"],
                       "± Tp": sea["tp_std"], "hindcast from": sea["hindcast_dir_from_deg"],
                       "from": sea["dir_from_deg"], "± from": sea["dir_from_deg_std"], "spread": sea["spread_deg"],
-                      "γ / n": [f"{g:.1f} / {n:.0f}" for g, n in zip(sea["gamma"], sea["tail"] if "tail" in sea
-                                                                       else np.full(len(sea), 5.0), strict=True)]})
+                      "γ / n": [f"{g:.1f} / {n:.0f}" for g, n in  # n: JONSWAP's 5 in a table without it
+                                zip(sea["gamma"], np.exp(table_coordinates(sea)[:, -1]), strict=True)]})
     units = {"hindcast Hs": "m", "Hs": "m", "± Hs": "m", "hindcast Tp": "s", "Tp": "s", "± Tp": "s",
              "hindcast from": "deg", "from": "deg", "± from": "deg", "spread": "deg"}
     body += H.table(t, units, caption="Partitions of the estimated sea (sea_states.parquet): the hindcast's value "
