@@ -405,9 +405,13 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
     # every window with every channel set (all; without roll) at once, then the refits from the pooled priors
     subsets = [(channels, list(range(len(channels))))] + ([(without_roll, keep)] if roll_free else [])
     hindcast = [pr for *_, pr in inputs]
-    first = estimate_windows(vessel, design, channels, inputs,
-                             [(k, cols, pr) for _, cols in subsets for k, pr in enumerate(hindcast)], settings)
-    est = [first[s * len(inputs):(s + 1) * len(inputs)] for s in range(len(subsets))]
+
+    def every_subset(vessel, design) -> list[list]:  # per channel set, each window fitted from its hindcast priors
+        fits = estimate_windows(vessel, design, channels, inputs,
+                                [(k, cols, pr) for _, cols in subsets for k, pr in enumerate(hindcast)], settings)
+        return [fits[s * len(inputs):(s + 1) * len(inputs)] for s in range(len(subsets))]
+
+    est = every_subset(vessel, design)
     # loading parameters read from the sea fit: {name: (value, std)}; a refit the alternations ask for (`parameters`
     # given) keeps the first fit's reading, which the vessel they pass already holds
     fresh = main and parameters is None
@@ -442,9 +446,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
     else:
         pooled = [hindcast] * len(subsets)
         if refit_all:
-            again = estimate_windows(vessel, design, channels, inputs,
-                                     [(k, cols, pr) for _, cols in subsets for k, pr in enumerate(hindcast)], settings)
-            est = [again[s * len(inputs):(s + 1) * len(inputs)] for s in range(len(subsets))]
+            est = every_subset(vessel, design)
     rows, *rows_roll = ([r for (wid, hd, _, pr), e, pp in zip(inputs, est[s], pooled[s], strict=True)
                          for r in partition_rows(wid, e, hd, names, pr, pp)] for s, (names, _) in enumerate(subsets))
     rows_roll = rows_roll[0] if rows_roll else []
