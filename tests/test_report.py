@@ -484,7 +484,7 @@ def test_warning_card_from_a_real_run_whose_tuning_misleads(reported, tmp_path):
     assert "sea: up to date" in res.stdout and "identify: up to date" in res.stdout
     out = tmp_path / "run"
     for name in ("diagnosis.parquet", "diagnosis_residuals.parquet", "augmented_vessel.yaml"):
-        (out / name).unlink()  # of the first tuning
+        (out / name).unlink(missing_ok=True)  # of the first tuning (augmented: if named)
     val = pd.read_parquet(out / "validation.parquet")
     prior, tuned = _held_out(val, "predicted_prior"), _held_out(val, "predicted_tuned")
     assert tuned > prior
