@@ -36,13 +36,17 @@ def true_sea(truth: dict, windows: pd.DataFrame):
 
 
 def true_sea_posterior(folder: Path, truth: dict) -> dict[str, tuple[float, float]]:
-    """{parameter: (mean, std)} of the trial's run tuned with its true sea (nothing is written)."""
+    """{parameter: (mean, std)} of the trial's run tuned with its true sea (nothing is written), on the vessel the
+    run's tune had: with the loading the sea fit read (`sea.read_loading`), so that the two posteriors differ by the
+    sea alone."""
     from seatune.io.run_yaml import Run
+    from seatune.pipeline.sea import with_sea_read
     from seatune.pipeline.tune import fit_loading
     from seatune.pipeline.vessel import open_run_vessel
 
     run = Run(str(Path(folder) / "run.yaml"))
     windows = pd.read_parquet(run.artefact("windows.parquet"))
-    fit = fit_loading(run, open_run_vessel(run), echo=lambda *a, **k: None, given_sea=true_sea(truth, windows))
+    vessel = with_sea_read(run, open_run_vessel(run))
+    fit = fit_loading(run, vessel, echo=lambda *a, **k: None, given_sea=true_sea(truth, windows))
     return {name: (float(m), float(s)) for name, m, s in zip(fit.post.names, fit.post.mean, fit.post.std,
                                                               strict=True)}
