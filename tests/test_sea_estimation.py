@@ -817,11 +817,13 @@ def test_a_profiled_misfit_s_minimum_and_curvature(true):
 @pytest.mark.parametrize("xcg", [-1.5, 0.0])
 def test_the_sea_fit_reads_the_lcg_the_vessel_yaml_has_wrong(tmp_path, xcg):
     """A barge whose LCG is 1.5 m aft of the vessel YAML's (xcg 0 ± 1 m, untuned), or where the YAML has it: three
-    20-minute windows from the independent path, `seatune sea` by the real CLI with `sea.read_loading: [xcg]`. The
-    windows' summed misfit, profiled over xcg, is least near the truth, and the reading is taken where the misfit
-    falls by more than BIC's penalty; it is recorded in sea_states.parquet and the later stages' vessel holds it.
+    20-minute windows from the independent path, `seatune sea` by the real CLI (`sea.read_loading: [xcg]`, the
+    default). The windows' summed misfit, profiled over xcg, is least near the truth, and the reading is taken where
+    the misfit falls by more than BIC's penalty; it is recorded in sea_states.parquet, the later stages' vessel
+    holds it, and diagnose's prior for xcg is the reading.
     Seen: −1.41 m read (misfit −462 nats); +0.09 m, −2.1 nats against 3.8: the YAML's 0 kept."""
     from seatune.io.run_yaml import Run
+    from seatune.pipeline.diagnose import diagnosis_parameters
     from seatune.pipeline.sea import sea_design, with_sea_read
     from seatune.pipeline.vessel import open_run_vessel
 
@@ -831,7 +833,7 @@ def test_the_sea_fit_reads_the_lcg_the_vessel_yaml_has_wrong(tmp_path, xcg):
     folder = tmp_path / "lcg"
     assert truth["loading"]["xcg"] == xcg
     data = yaml.safe_load((folder / "run.yaml").read_text())
-    (folder / "run.yaml").write_text(yaml.safe_dump({**data, "sea": {"read_loading": ["xcg"]}}))
+    assert "sea" not in data  # the default reads xcg
     res = subprocess.run([str(Path(sys.executable).with_name("seatune")), "sea", "run.yaml"], cwd=folder,
                          capture_output=True, text=True)
     assert res.returncode == 0, res.stdout + res.stderr
@@ -839,7 +841,17 @@ def test_the_sea_fit_reads_the_lcg_the_vessel_yaml_has_wrong(tmp_path, xcg):
     run = Run(folder / "run.yaml")
     value, std = sea_design(run, "read").get("xcg", (0.0, None))  # none read: the vessel's kept
     assert abs(value - xcg) < 0.5 and (std is None) == (xcg == 0.0)
-    assert float(with_sea_read(run, open_run_vessel(run)).base_loading.xcg[0]) == pytest.approx(value)
+    vessel = with_sea_read(run, open_run_vessel(run))
+    assert float(vessel.base_loading.xcg[0]) == pytest.approx(value)
+    # diagnose refits the LCG beside each effect from the reading, not from the YAML's prior
+    tuned = ("gmt_fs", "r44", "beta44")
+    pd.DataFrame({"update": 0, "parameter": tuned, "mean": [vessel.spec.priors[n].mean for n in tuned]}).to_parquet(
+        run.artefact("tuning_history.parquet"))
+    parameters, start = diagnosis_parameters(run, vessel)
+    k = [q.name for q in parameters].index("xcg")
+    prior = vessel.spec.priors["xcg"]
+    assert start[k] == pytest.approx(value)
+    assert (parameters[k].prior_mean, parameters[k].prior_std) == ((value, std) if std else (prior.mean, prior.std))
 
 @pytest.fixture(scope="module")
 def biased_hindcast_record(tmp_path_factory):

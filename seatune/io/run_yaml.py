@@ -147,9 +147,9 @@ class SeaSettings(Strict):
     # fit each window again with the hindcast's error the record's other windows found (partial pooling)
     pool_windows: bool = True
     # loading parameters read from the sea fit itself (its misfit profiled over the vessel prior) where they are
-    # uncertain (a prior in the vessel YAML) and neither known nor tuned; e.g. [xcg]. Off by default: on the blind
-    # bank the LCG read lost an IMU lever arm to it and named one more false alarm (README)
-    read_loading: list[str] = []
+    # uncertain (a prior in the vessel YAML) and neither known nor tuned; [] turns the read off. On the blind bank
+    # the LCG read put missing swells' Hs within 15 % in 100 % of windows (88 % without) (README "Offset")
+    read_loading: list[str] = ["xcg"]
     segment_s: PositiveFloat = 128.0  # Welch segment of the cross-spectra (Δω 0.05 rad/s, twice the filter's ν)
     # prior widths of the hindcast's partitions, floors of hindcast.uncertainty (ERA5 vs buoys, Han A5 Table 4.1)
     hs_rel_std: PositiveFloat = 0.25
