@@ -824,8 +824,10 @@ def test_the_sea_fit_reads_the_lcg_the_vessel_yaml_has_wrong(tmp_path, xcg):
     Seen: −1.41 m read (misfit −462 nats); +0.09 m, −2.1 nats against 3.8: the YAML's 0 kept."""
     from seatune.io.run_yaml import Run
     from seatune.pipeline.diagnose import diagnosis_parameters
+    from seatune.pipeline.report import loading_read
     from seatune.pipeline.sea import sea_design, with_sea_read
     from seatune.pipeline.vessel import open_run_vessel
+    from seatune.report.build import loading_read_text
 
     spec = make_spec(trial="lcg", index=21, hull="barge", category="clean", effects=[], n_windows=3, short=True,
                      layout="partitions")
@@ -852,6 +854,12 @@ def test_the_sea_fit_reads_the_lcg_the_vessel_yaml_has_wrong(tmp_path, xcg):
     prior = vessel.spec.priors["xcg"]
     assert start[k] == pytest.approx(value)
     assert (parameters[k].prior_mean, parameters[k].prior_std) == ((value, std) if std else (prior.mean, prior.std))
+    # the report's sea section names the reading beside the YAML's prior
+    read = loading_read(run, vessel)
+    assert read == ({"xcg": (value, std, prior.mean, prior.std)} if std else {})
+    if std:
+        expected = f"xcg {value:.2f} ± {std:.2f} m (vessel YAML {prior.mean:g} ± {prior.std:g} m)"
+        assert expected in loading_read_text(read)
 
 @pytest.fixture(scope="module")
 def biased_hindcast_record(tmp_path_factory):

@@ -143,6 +143,18 @@ def _display_path(path: Path) -> str:
         return str(path)
 
 
+def loading_read(run, vessel) -> dict[str, tuple[float, float, float, float]]:
+    """{name: (value, std, prior mean, prior std)} of the loading parameters the sea fit read (sea_states.parquet),
+    beside the vessel YAML's prior for them."""
+    from seatune.pipeline.sea import sea_design
+
+    out = {}
+    for name, (value, std) in sea_design(run, "read").items():
+        prior = vessel.spec.priors.get(name)
+        out[name] = (float(value), float(std), *((float(prior.mean), float(prior.std)) if prior else (np.nan, np.nan)))
+    return out
+
+
 def report_stage(run, vessel, echo=print, force: bool = False, not_run: dict[str, str] | None = None) -> dict:
     """`not_run`: {stage: why} of the stages that could not run this time (no accepted window, a stage's error):
     their artefacts, even left from an earlier run, stay off the page, which says why."""
@@ -209,7 +221,7 @@ def report_stage(run, vessel, echo=print, force: bool = False, not_run: dict[str
         diagnosis_units=column_units(diag_path) if diagnosed else {},
         diagnosis_residuals=optional("diagnosis_residuals.parquet"),
         sea_refit_hs=sea_refit_hs(sea_states, optional("sea_states_diagnosed.parquet")),
-        sea_states=sea_states, not_run=not_run,
+        sea_states=sea_states, not_run=not_run, sea_read={} if sea_states is None else loading_read(run, vessel),
         artefacts=[(p.name, p.stat().st_size, recorded_fingerprint(p) or "") for p in sorted(run.run_dir.iterdir())
                    if p.is_file() and not p.name.startswith(".") and p.name not in ("report.html", "summary.parquet")])
     from seatune.io.hindcast_readers import read_hindcast

@@ -203,6 +203,8 @@ def sea_section(inp: ReportInputs) -> str | None:
                     "beside the estimate and its standard deviation; a system absent from the hindcast has no "
                     "hindcast value; γ / n: the peak enhancement and the exponent of the ω⁻ⁿ tail (JONSWAP: n = 5)",
                     digits=3, row_class=lambda r: "rejected" if pd.isna(r["hindcast Hs"]) else "")
+    if inp.sea_read:
+        body += H.note(loading_read_text(inp.sea_read))
     refit = inp.sea_refit_hs
     if refit is not None and not refit.empty:
         t = pd.DataFrame({"window": "W" + refit["window_id"].astype(str), "Hs": refit["hs"],
@@ -215,6 +217,16 @@ def sea_section(inp: ReportInputs) -> str | None:
     return H.section("sea", "Sea state: hindcast and the sea from the ship", body,
                      f"Every stage after this one uses the estimated sea. {len(added)} partition(s) in "
                      f"{added['window_id'].nunique()} window(s) are absent from the hindcast.")
+
+
+def loading_read_text(read: dict) -> str:
+    """The loading the sea fit read, beside the vessel YAML's prior: read {name: (value, std, prior mean, std)}."""
+    def one(name, value, std, mean, prior_std):
+        unit = PARAMETER_UNITS.get(name, "")
+        return f"{name} {value:.2f} ± {std:.2f} {unit} (vessel YAML {mean:g} ± {prior_std:g} {unit})".replace(" )", ")")
+
+    return ("Read from the sea fit's own misfit (sea.read_loading), and modelled by every later stage: "
+            + "; ".join(one(name, *v) for name, v in read.items()) + ".")
 
 
 def filter_section(inp: ReportInputs) -> str:

@@ -52,6 +52,8 @@ class ReportInputs:
     sea_states: pd.DataFrame | None = None  # sea_states.parquet (the sea estimated from the motions)
     # per window Hs of sea_states.parquet (hs) and of sea_states_diagnosed.parquet (hs_refit), when diagnose refitted
     sea_refit_hs: pd.DataFrame | None = None
+    # loading parameters the sea fit read (sea.read_loading): name → (value, std, vessel-YAML prior mean, prior std)
+    sea_read: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)
     artefacts: list[tuple[str, int, str]] = field(default_factory=list)  # (file, bytes, fingerprint)
     # measured Welch spectrum of each DOF's main channel per window and the model's (prior, tuned) [unit²·s/rad]
     spectra: pd.DataFrame | None = None
