@@ -69,6 +69,10 @@ def test_a_trial_row_and_the_bank_figures_by_hand():
     assert a["named_sea_side"] == "missing_swell" and a["named_effects"] == "none"
     assert a["r44_error"] == pytest.approx(0.2) and a["r44_within_2sigma"] and not a["r44_within_tolerance"]
     assert not b["r44_within_2sigma"]  # 0.5 m off with σ 0.2 m
+    # a calibrated posterior's chance of the 2 % tolerance (0.16 m of 8 m): P(|N(0, σ²)| ≤ 0.16)
+    assert a["r44_within_tolerance_expected"] == pytest.approx(0.7139, abs=1e-4)  # σ 0.15 m: ±1.067σ
+    assert b["r44_within_tolerance_expected"] == pytest.approx(0.5763, abs=1e-4)  # σ 0.2 m: ±0.8σ
+    assert (a["r44_error_z"], b["r44_error_z"]) == (pytest.approx(0.2 / 0.15), pytest.approx(0.5 / 0.2))
     assert a["omega_roll_reported"] is False and a["omega_roll_reason"] == "not identified: no wave energy"
     assert c["omega_roll_rel_error"] == pytest.approx(-0.02)
     assert c["omega_heave_rel_error"] == pytest.approx(0.001 / 0.9)  # the posterior is what identify reports
@@ -90,6 +94,10 @@ def test_a_trial_row_and_the_bank_figures_by_hand():
     assert m.loc[("omega_reported_with_value", "roll"), "value"] == pytest.approx(1 / 3)
     assert m.loc[("estimated_sea_within_1sigma_of_true_sea", "r44"), "value"] == 0.5
     assert m.loc[("parameter_within_tolerance_clean_true_sea", "r44"), "n"] == 2
+    assert m.loc[("parameter_within_tolerance_clean_expected", "r44"), "value"] == pytest.approx(
+        (0.7139 + 0.5763) / 2, abs=1e-4)
+    assert m.loc[("parameter_error_z_rms_clean", "r44"), "value"] == pytest.approx(
+        np.sqrt(((0.2 / 0.15) ** 2 + 2.5**2) / 2))
     assert m.loc[("tuned_model_mode_within_2pct", "roll"), "n"] == 1
     conf = confusion(pd.DataFrame(rows))
     assert conf.loc["clean", "moonpool"] == 1 and conf.loc["clean", "none"] == 1 and conf.values.sum() == 3

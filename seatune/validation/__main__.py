@@ -173,10 +173,13 @@ def main(argv=None) -> int:
         return 2
     ok = summary["status"] == "ok"
     print(f"validate: {int(ok.sum())} of {len(summary)} trials scored → {page}")
+    expected = metrics[metrics["metric"] == "parameter_within_tolerance_clean_expected"].set_index("group")["value"]
     for r in metrics[metrics["target"].notna()].itertuples():
         mark = "–" if r.passed is None or (isinstance(r.passed, float) and np.isnan(r.passed)) else (
             "pass" if r.passed else "MISS")
-        print(f"  {r.metric:<30} {r.group:<34} {r.value:8.3f} (n={r.n}, target {r.target:g}) {mark}")
+        reach = (f"; a calibrated posterior's {expected[r.group]:.3f}"
+                 if r.metric == "parameter_within_tolerance_clean" and r.group in expected else "")
+        print(f"  {r.metric:<30} {r.group:<34} {r.value:8.3f} (n={r.n}, target {r.target:g}{reach}) {mark}")
     return 0
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+from scipy.special import erf
 
 from seatune.diagnosis.effects import SEA_SIDE
 from seatune.identification.sea_estimation import direction_difference_deg
@@ -101,6 +102,9 @@ def score_trial(truth: dict, artefacts: dict[str, pd.DataFrame | None], model_mo
             tol, kind = PARAMETER_TOLERANCE[p]
             tol = tol * (abs(t) if kind == "rel" else 1.0)
             row[f"{p}_within_tolerance"] = bool(abs(err) <= tol) if np.isfinite(err) else None
+            # what a calibrated posterior reaches: P(|error| ≤ tolerance) for an error ~ N(0, σ̂²)
+            row[f"{p}_within_tolerance_expected"] = float(erf(tol / (std * np.sqrt(2.0)))) if std > 0 else np.nan
+            row[f"{p}_error_z"] = err / std if std > 0 else np.nan
             if reference is not None:
                 ref_mean, ref_std = reference.get(p, (np.nan, np.nan))
                 row |= {f"{p}_true_sea_estimate": ref_mean, f"{p}_true_sea_std": ref_std,
@@ -280,7 +284,7 @@ def summary_units(columns) -> dict[str, str]:
     for c in columns:
         if c in effect_columns:
             units[c] = effect_columns[c]
-        elif c.startswith("heldout_gap_shrink"):
+        elif c.startswith("heldout_gap_shrink") or c.endswith(("_error_z", "_within_tolerance_expected")):
             units[c] = "dimensionless"
         elif c.startswith("omega_") and c.endswith(("_truth", "_estimate", "_model_at_truth")):
             units[c] = "rad/s"
@@ -303,6 +307,16 @@ def _target(target: float | None) -> float:
 def _median(x: pd.Series) -> tuple[float, int]:
     x = x.dropna()
     return (float(x.median()) if len(x) else float("nan")), int(len(x))
+
+
+def _mean(x: pd.Series) -> tuple[float, int]:
+    x = x.dropna()
+    return (float(x.mean()) if len(x) else float("nan")), int(len(x))
+
+
+def _rms(x: pd.Series) -> tuple[float, int]:
+    x = x.dropna()
+    return (float(np.sqrt((x**2).mean())) if len(x) else float("nan")), int(len(x))
 
 
 def _rate(x: pd.Series) -> tuple[float, int]:
@@ -348,6 +362,10 @@ def bank_metrics(summary: pd.DataFrame) -> pd.DataFrame:
             add("parameter_within_tolerance_clean", p, *_rate(clean[f"{p}_within_tolerance"]),
                 TARGETS["parameter_within_tolerance"])
             add("parameter_within_tolerance_clean_true_sea", p, *_rate(clean[f"{p}_true_sea_within_tolerance"]))
+            # the tolerance against the information in the records: a calibrated posterior's expected rate, and
+            # whether the posteriors are calibrated (rms of error / σ̂ near 1)
+            add("parameter_within_tolerance_clean_expected", p, *_mean(clean[f"{p}_within_tolerance_expected"]))
+            add("parameter_error_z_rms_clean", p, *_rms(clean[f"{p}_error_z"]))
             add("estimated_sea_within_1sigma_of_true_sea", p, *_rate(clean[f"{p}_as_true_sea"]), 1.0)
     for d in DOFS:
         add("omega_value_or_reason", d, *_rate(ok[f"omega_{d}_reported"] | (ok[f"omega_{d}_reason"] != "")),
