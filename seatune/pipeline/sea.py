@@ -422,7 +422,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
         # for the correlation of adjacent Welch bins, as the sea's own search counts them)
         penalty = 0.5 * np.log(max(sum(e.n_residuals for e in est[0]) / 2.0, 2.0))
         keep = "read" if gain > penalty else "kept the vessel's"
-        echo(f"sea: {parameter.name} from the sea fit {value:.2f} ± {std:.2f} (vessel {parameter.prior_mean:g} ± "
+        echo(f"sea ↔ {parameter.name}: from the sea fit {value:.2f} ± {std:.2f} (vessel {parameter.prior_mean:g} ± "
              f"{parameter.prior_std:g}; misfit −{gain:.1f}, BIC {penalty:.1f}): {keep}")
         if gain > penalty:
             read[parameter.name] = (value, std)
