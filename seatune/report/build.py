@@ -222,8 +222,8 @@ def sea_section(inp: ReportInputs) -> str | None:
 def loading_read_text(read: dict) -> str:
     """The loading the sea fit read, beside the vessel YAML's prior: read {name: (value, std, prior mean, std)}."""
     def one(name, value, std, mean, prior_std):
-        unit = PARAMETER_UNITS.get(name, "")
-        return f"{name} {value:.2f} ± {std:.2f} {unit} (vessel YAML {mean:g} ± {prior_std:g} {unit})".replace(" )", ")")
+        unit = f" {PARAMETER_UNITS[name]}" if PARAMETER_UNITS.get(name) else ""
+        return f"{name} {value:.2f} ± {std:.2f}{unit} (vessel YAML {mean:g} ± {prior_std:g}{unit})"
 
     return ("Read from the sea fit's own misfit (sea.read_loading), and modelled by every later stage: "
             + "; ".join(one(name, *v) for name, v in read.items()) + ".")
