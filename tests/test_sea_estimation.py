@@ -818,6 +818,42 @@ def test_a_profiled_misfit_s_minimum_and_curvature(true):
     assert profile_minimum(values, -((values + 0.5) ** 2)) == (2.0, np.inf, -6.25)  # not convex: the lowest point
 
 
+def test_the_random_effects_mean_of_the_bcg_trials_is_metafors():
+    """DerSimonian–Laird on the 13 BCG vaccine trials' log risk ratios (Colditz et al. 1994, metafor's dat.bcg):
+    mean −0.7141, 95 % interval −1.0644 … −0.3638 (metafor's test against Stata's metan, randomi rr)."""
+    from seatune.identification.sea_estimation import _random_effects, _random_effects_mean
+
+    tpos = np.array([4, 6, 3, 62, 33, 180, 8, 505, 29, 17, 186, 5, 27])
+    tneg = np.array([119, 300, 228, 13536, 5036, 1361, 2537, 87886, 7470, 1699, 50448, 2493, 16886])
+    cpos = np.array([11, 29, 11, 248, 47, 372, 10, 499, 45, 65, 141, 3, 29])
+    cneg = np.array([128, 274, 209, 12619, 5761, 1079, 619, 87892, 7232, 1600, 27197, 2338, 17825])
+    y = np.log(tpos / (tpos + tneg)) - np.log(cpos / (cpos + cneg))
+    v = 1 / tpos - 1 / (tpos + tneg) + 1 / cpos - 1 / (cpos + cneg)
+    weights, tau2 = _random_effects(y[:, None], v[:, None])
+    mean, _, total = _random_effects_mean(weights, tau2, y[:, None])
+    se = 1 / np.sqrt(total[0])
+    assert mean[0] == pytest.approx(-0.7141, abs=1e-4)
+    assert mean[0] - 1.959964 * se == pytest.approx(-1.0644, abs=1e-4)
+    assert mean[0] + 1.959964 * se == pytest.approx(-0.3638, abs=1e-4)
+
+
+def test_a_read_s_std_is_the_windows_scatter_where_they_disagree():
+    """Windows' misfit profiles ½((v − m_w)/σ)² on the read grid: agreeing (all m_w = 0.4) they give the summed
+    curvature's σ/√n; two at ±a with 2a² > σ² give a (DerSimonian–Laird by hand: τ² = 2a² − σ², 1/√(2/(σ² + τ²)));
+    a prior σ_p adds 1/σ_p² to the information."""
+    from seatune.identification.sea_estimation import profile_spread
+
+    values = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])
+    sigma = 0.2
+    agree = np.stack([0.5 * ((values - 0.4) / sigma) ** 2] * 4, axis=1)
+    assert profile_spread(values, agree) == pytest.approx(sigma / 2)
+    a = 0.6
+    split = np.stack([0.5 * ((values - m) / sigma) ** 2 for m in (-a, a)], axis=1)
+    assert profile_spread(values, split) == pytest.approx(a)
+    assert profile_spread(values, split, prior_std=1.0) == pytest.approx(1 / np.sqrt(1 / a**2 + 1.0))
+    assert profile_spread(values, split[:, :1]) == 0.0  # one window: no scatter to measure
+
+
 @pytest.mark.parametrize("xcg", [-1.5, 0.0])
 def test_the_sea_fit_reads_the_lcg_the_vessel_yaml_has_wrong(tmp_path, xcg):
     """A barge whose LCG is 1.5 m aft of the vessel YAML's (xcg 0 ± 1 m, untuned), or where the YAML has it: three

@@ -691,6 +691,20 @@ def profile_minimum(values: np.ndarray, costs: np.ndarray) -> tuple[float, float
     return vertex, float(1.0 / np.sqrt(2.0 * a)), float(min(np.polyval([a, b, c0], vertex), costs.min()))
 
 
+def profile_spread(values: np.ndarray, per_window: np.ndarray, prior_std: float = np.inf) -> float:
+    """σ̂ of one parameter read from windows' misfit profiles (per_window: costs (n values, n windows)), from each
+    window's own minimum and σ_w (`profile_minimum`) and the scatter τ² between them beyond those (DerSimonian &
+    Laird 1986, eqs. 1–3): 1/√(Σ 1/(σ_w² + τ²) + 1/σ_prior²). The summed profile's curvature takes every window as
+    independent evidence of one value; where the windows disagree, that is what they say. 0 with fewer than two
+    windows that have a minimum (no scatter to measure)."""
+    own = np.array([profile_minimum(values, per_window[:, w])[:2] for w in range(per_window.shape[1])]).reshape(-1, 2)
+    ok = np.isfinite(own[:, 1]) & (own[:, 1] > 0)
+    if ok.sum() < 2:
+        return 0.0
+    weights, _ = _random_effects(own[ok, :1], own[ok, 1:] ** 2)
+    return float(1.0 / np.sqrt(weights.sum() + 1.0 / prior_std**2))
+
+
 def _shape_correction(x: np.ndarray, tp_rel: float = 0.25) -> bool:
     """An added partition (last row) at the period of another is a correction of that one's frequency or
     directional shape (an Ochi–Hubble or wrapped-normal sea fitted by JONSWAP × cos-2s), not a new system, when
