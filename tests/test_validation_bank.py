@@ -40,8 +40,8 @@ def _artefacts(named, r44_mean, r44_std, roll=None, heave_posterior=None):
         nf = pd.concat([nf, pd.DataFrame({"dof": ["Heave"], "method": "posterior", "window_id": "all",
                                           "omega_n": [heave_posterior], "ci_low": [0.89], "ci_high": [0.91],
                                           "derived": None, "reason": None})], ignore_index=True)
-    diag = pd.DataFrame({"effect": ["none", "moonpool", "missing_swell"],
-                         "selected": [False, "moonpool" in named, "missing_swell" in named]})
+    diag = pd.DataFrame({"effect": ["none", "moonpool", "missing_swell", "anti_roll_tank"],
+                         "selected": [False, "moonpool" in named, "missing_swell" in named, "anti_roll_tank" in named]})
     val = pd.DataFrame({"role": ["train", "holdout"], "measured": [1.0, 1.0], "predicted_prior": [1.5, 2.0],
                         "predicted_tuned": [1.1, np.e]})
     return {"tuning_history": history, "natural_frequencies": nf, "diagnosis": diag, "validation": val}
@@ -63,9 +63,15 @@ def test_a_trial_row_and_the_bank_figures_by_hand():
             score_trial(_truth("b", "clean", []), _artefacts({"moonpool"}, 8.5, 0.2), {"roll": 0.502},
                         reference={"r44": (8.0, 0.2), "gmt_fs": (0.2, 0.1)}),
             score_trial(_truth("c", "moonpool", ["moonpool"]),
-                        _artefacts({"moonpool"}, 8.0, 0.1, roll=0.49, heave_posterior=0.901), {"roll": 0.5})]
-    a, b, c = rows
-    assert (a["verdict"], b["verdict"], c["verdict"]) == ("correct_none", "false_alarm", "hit")
+                        _artefacts({"moonpool"}, 8.0, 0.1, roll=0.49, heave_posterior=0.901), {"roll": 0.5},
+                        read={"xcg": (0.3, 0.1)}),
+            score_trial(_truth("d", "moonpool", ["moonpool"]), _artefacts({"moonpool", "anti_roll_tank"}, 8.0, 0.1),
+                        {"roll": 0.5}, read={"xcg": (-0.05, 0.1)})]
+    a, b, c, d = rows
+    rows = rows[:3]
+    assert (a["verdict"], b["verdict"], c["verdict"], d["verdict"]) == ("correct_none", "false_alarm", "hit", "hit")
+    assert (c["wrong_extra_names"], d["wrong_extra_names"]) == ("", "anti_roll_tank")  # named beside the truth
+    assert (c["xcg_read_error_z"], d["xcg_read_error_z"]) == (pytest.approx(3.0), pytest.approx(-0.5))
     assert a["named_sea_side"] == "missing_swell" and a["named_effects"] == "none"
     assert a["r44_error"] == pytest.approx(0.2) and a["r44_within_2sigma"] and not a["r44_within_tolerance"]
     assert not b["r44_within_2sigma"]  # 0.5 m off with σ 0.2 m
@@ -89,6 +95,10 @@ def test_a_trial_row_and_the_bank_figures_by_hand():
     assert m.loc[("false_alarm_rate", "clean"), "value"] == 0.5
     assert not m.loc[("false_alarm_rate", "clean"), "passed"]
     assert m.loc[("effect_hit_rate", "moonpool"), "value"] == 1.0
+    m2 = bank_metrics(pd.DataFrame([c, d])).set_index(["metric", "group"])
+    assert m2.loc[("wrong_extra_name_rate", "trials with effects"), "value"] == 0.5  # d of the two
+    assert m2.loc[("read_within_2sigma", "xcg"), "value"] == 0.5 and m2.loc[("read_within_2sigma", "xcg"), "n"] == 2
+    assert m2.loc[("read_error_z_rms", "xcg"), "value"] == pytest.approx(np.sqrt((9.0 + 0.25) / 2))
     assert m.loc[("coverage_2sigma", "r44"), "value"] == pytest.approx(2 / 3)
     assert m.loc[("omega_value_or_reason", "roll"), "value"] == 1.0  # value or reason in all three
     assert m.loc[("omega_reported_with_value", "roll"), "value"] == pytest.approx(1 / 3)

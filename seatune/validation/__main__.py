@@ -91,6 +91,15 @@ def _reference(folder: Path):
     return true_sea_posterior(folder, read_truth(folder))
 
 
+def sea_read(rd: Path) -> dict[str, tuple[float, float]]:
+    """{parameter: (value, std)} the run's sea fit read (`sea.read_loading`; {} without one)."""
+    from seatune.io.parquet import table_metadata
+
+    path = rd / "sea_states.parquet"
+    return {k: (float(v[0]), float(v[1])) for k, v in table_metadata(path).get("read", {}).items()} \
+        if path.is_file() else {}
+
+
 def true_sea_references(bank: Path, workers: int) -> dict[Path, dict]:
     """{trial folder: posterior with the true sea given} of the clean trials that ran (processes, `workers`)."""
     from concurrent.futures import ProcessPoolExecutor
@@ -117,7 +126,7 @@ def score_bank(bank: Path, references: dict[Path, dict] | None = None) -> tuple[
             arts["natural_frequencies"] = arts["natural_frequencies_diagnosed"]
         status, message = ("ok", "") if not missing else ("failed", f"no {', '.join(missing)} in {rd}")
         rows.append(score_trial(truth, arts, model_modes_at_truth(truth, folder, cache), status, message,
-                                tuned_model_modes(rd), (references or {}).get(folder)))
+                                tuned_model_modes(rd), (references or {}).get(folder), sea_read(rd)))
         windows = pd.read_parquet(rd / "windows.parquet") if (rd / "windows.parquet").is_file() else None
         # the sea seatune delivers: refitted through the named vessel effects when diagnose named one
         final = arts["sea_states_diagnosed"] if arts["sea_states_diagnosed"] is not None else arts["sea_states"]

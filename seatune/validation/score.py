@@ -73,12 +73,13 @@ def primary_modes(nf: pd.DataFrame | None, measured_only: bool = False) -> dict[
 
 def score_trial(truth: dict, artefacts: dict[str, pd.DataFrame | None], model_modes: dict[str, float] | None = None,
                 status: str = "ok", message: str = "", tuned_modes: dict[str, float] | None = None,
-                reference: dict[str, tuple[float, float]] | None = None) -> dict:
+                reference: dict[str, tuple[float, float]] | None = None,
+                read: dict[str, tuple[float, float]] | None = None) -> dict:
     """One row of bank_summary.parquet. `artefacts`: tuning_history, validation, natural_frequencies (the final:
     diagnose's where it wrote them, then identify's are natural_frequencies_stage), diagnosis (None when missing);
     `model_modes`: the vessel model's coupled ω_n at the true loading by DOF; `tuned_modes`:
     the tuned model's; `reference`: the posterior {parameter: (mean, std)} of the same run tuned with the true
-    sea (validation/true_sea.py)."""
+    sea (validation/true_sea.py); `read`: {parameter: (value, std)} the sea fit read (sea_states.parquet)."""
     true_effects = {e["kind"] for e in truth.get("effects") or []}
     diag = artefacts.get("diagnosis")
     named = set() if diag is None else {str(e) for e in diag.loc[diag["selected"].astype(bool), "effect"]} - {"none"}
@@ -90,6 +91,9 @@ def score_trial(truth: dict, artefacts: dict[str, pd.DataFrame | None], model_mo
            "true_effects": "+".join(sorted(true_effects)) or "none",
            "named_effects": "+".join(sorted(named & set(VESSEL_EFFECTS))) or "none",
            "named_sea_side": "+".join(sorted(named & set(SEA_EFFECTS))) or "none",
+           # a vessel effect named beside the true ones (on a clean trial that is the false alarm)
+           "wrong_extra_names": "+".join(sorted((named & set(VESSEL_EFFECTS)) - true_effects)) if true_effects
+           else "",
            "verdict": verdict(true_effects, named) if status == "ok" else "failed"}
     post = final_posterior(artefacts.get("tuning_history"))
     for p in PARAMETERS:
@@ -112,6 +116,10 @@ def score_trial(truth: dict, artefacts: dict[str, pd.DataFrame | None], model_mo
                         if np.isfinite(ref_mean) else None,
                         f"{p}_as_true_sea": bool(abs(mean - ref_mean) <= ref_std)
                         if np.isfinite(ref_mean) and np.isfinite(mean) else None}
+    for p, (value, std) in (read or {}).items():
+        t = float(truth["loading"].get(p, np.nan))
+        row |= {f"{p}_read": value, f"{p}_read_std": std, f"{p}_read_error": value - t,
+                f"{p}_read_error_z": (value - t) / std if std > 0 else np.nan}
     modes = primary_modes(artefacts.get("natural_frequencies"))
     measured = primary_modes(artefacts.get("natural_frequencies"), measured_only=True)  # without the loading prior
     # identify's own, where `natural_frequencies` is diagnose's (in the sea refitted through the named effects)
@@ -290,7 +298,8 @@ def summary_units(columns) -> dict[str, str]:
             units[c] = "rad/s"
         elif c.endswith(("_rel_error", "_model_rel_error")) or c.startswith("heldout_error"):
             units[c] = "dimensionless"
-        elif c.split("_")[0] in ("gmt", "r44", "xcg", "r55") and c.endswith(("_truth", "_estimate", "_std", "_error")):
+        elif c.split("_")[0] in ("gmt", "r44", "xcg", "r55") and c.endswith(("_truth", "_estimate", "_std", "_error",
+                                                                               "_read")):
             units[c] = "m"
         elif c.startswith("beta44") and c.endswith(("_truth", "_estimate", "_std", "_error")):
             units[c] = "dimensionless"
@@ -347,6 +356,17 @@ def bank_metrics(summary: pd.DataFrame) -> pd.DataFrame:
     comp = ok[ok["category"] == "compound"]
     add("compound_both_rate", "compound", *_rate(comp["verdict"] == "hit"), TARGETS["compound_both_rate"])
     add("compound_one_or_more_rate", "compound", *_rate(comp["verdict"].isin(["hit", "partial"])))
+    effects = ok[ok["category"] != "clean"]
+    if "wrong_extra_names" in effects:
+        add("wrong_extra_name_rate", "trials with effects", *_rate(effects["wrong_extra_names"].fillna("") != ""),
+            TARGETS["false_alarm_rate"], higher_better=False)
+    for p in PARAMETERS:  # the loading the sea fit read: its error against its own σ
+        if f"{p}_read_error" not in ok:
+            continue
+        read = ok[ok[f"{p}_read_error"].notna()]
+        add("read_median_abs_error", p, float(read[f"{p}_read_error"].abs().median()), len(read))
+        add("read_within_2sigma", p, *_rate(read[f"{p}_read_error_z"].abs() <= 2.0), TARGETS["coverage_2sigma"])
+        add("read_error_z_rms", p, *_rms(read[f"{p}_read_error_z"]))
     for p in PARAMETERS:
         err = ok[f"{p}_error"].dropna()
         if err.empty:
