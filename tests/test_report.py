@@ -497,3 +497,16 @@ def test_warning_card_from_a_real_run_whose_tuning_misleads(reported, tmp_path):
                                    for k, t in cards)
     validation = page[page.index('<section id="validation">'):]
     assert 'class="alert"' in validation[:validation.index("</section>")]
+
+
+def test_a_step_withdrawn_after_the_sea_refit_is_said_so():
+    """A candidate named at a greedy step, then withdrawn by diagnose's re-test in the sea refitted through the
+    other named effects (diagnosis.parquet `withdrawn`): the evidence table says so, not "a stronger candidate"."""
+    from types import SimpleNamespace
+
+    from seatune.report.build import _decision
+
+    row = dict(effect="anti_roll_tank", step=2, false_alarm_p=np.nan, cross_fold_gain=52.5, selected=False,
+               eligible=True, gain_holdout=66.8, gain_train=85.7, bic_penalty=10.8, at_bound="", widened="")
+    assert _decision(SimpleNamespace(**row, withdrawn=True)).startswith("named at step 2, then withdrawn")
+    assert _decision(SimpleNamespace(**row, withdrawn=False)) == "eligible; a stronger candidate was named"

@@ -169,8 +169,8 @@ def diagnosis_table(diag, effects, alternated=None, rounds: int = 0, withdrawn=(
     """One row per candidate and step of the greedy selection (DESIGN §5): the step's gains are over the effects
     named before it (`given`), the joint ones over the model without effect; gaps are the tuned model's against
     the model with the row's effects. `alternated`: the final model's Fit after `rounds` of alternation with the
-    sea, its parameters on the last selected row (`fitted_with_sea`). `withdrawn`: sea-side corrections the re-test
-    in the alternated sea dropped (their rows `withdrawn`, no longer `selected`). `with_sea`: the final model's gaps
+    sea, its parameters on the last selected row (`fitted_with_sea`). `withdrawn`: sea-side corrections, or a later
+    vessel effect, the re-test in the alternated sea dropped (their rows `withdrawn`, no longer `selected`). `with_sea`: the final model's gaps
     with the sea refitted through it (`Diagnoser.gaps_with_sea`), on the last selected row."""
     from seatune.diagnosis.residuals import describe
 
@@ -205,7 +205,7 @@ def diagnosis_table(diag, effects, alternated=None, rounds: int = 0, withdrawn=(
             "fitted_with_sea": "", "alternation_rounds": 0, "withdrawn": False,
             **dict.fromkeys(WITH_SEA_COLUMNS, np.nan)})
     table = pd.DataFrame(out, columns=list(DIAGNOSIS_UNITS))
-    gone = table["selected"] & table["effect"].isin(withdrawn)  # a sea-side correction the alternated sea took over
+    gone = table["selected"] & table["effect"].isin(withdrawn)  # what the alternated sea took over
     table.loc[gone, "selected"], table.loc[gone, "withdrawn"] = False, True
     chosen = table.index[table["selected"]]
     if len(chosen) and alternated is not None:  # the final step's effects as the alternation left them
@@ -389,6 +389,35 @@ def retest_sea_side(run, vessel, diagnoser, channels, diag, corrections, augment
     return fit, withdrawn
 
 
+def retest_later_effect(run, vessel, diagnoser, channels, diag, augmented: Path, rounds: int, echo=print):
+    """The last vessel effect of a greedy selection that named two, tested again on top of the ones named before it
+    in the sea alternated with those alone (`alternate_with_sea`, then `Diagnoser.retest`). The sea stage's fit had
+    absorbed part of the first effect, and the second was found in what was left: on the blind bank a tank after a
+    lever arm fitted 1.3 m short, a misalignment after a 48 m arm fitted at 39 m. Returns (the diagnosis, the
+    names withdrawn, and where it was withdrawn the earlier effects' alternation (Fit, rounds) the sea file holds):
+    the earlier effects as the winner where the last no longer passes."""
+    from seatune.diagnosis.effects import SEA_SIDE
+    from seatune.diagnosis.select import _members
+
+    steps = [r for r in diag.rows if r["selected"]]
+    if len(steps) < 2 or steps[-1]["added"] in SEA_SIDE or sum(r["added"] not in SEA_SIDE for r in steps) < 2:
+        return diag, [], None
+    earlier, effect = steps[-2]["fit"], _members(diag.winner)[-1][0]
+    alone = diagnoser.without_sea_side(earlier) or earlier  # the vessel effects alternate alone, as below
+    augmented_vessel_yaml(vessel, replace(diag, winner=alone), augmented)
+    sea_with_effects(run, vessel, diagnoser.parameters, alone.phi, augmented, echo)
+    alternated, made = alternate_with_sea(run, vessel, diagnoser, channels, replace(diag, winner=alone), augmented,
+                                          rounds, echo)
+    in_sea = run_diagnoser(run, vessel, diagnoser.parameters,
+                           window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE), diagnoser.phi_start)
+    kept, gain_t, gain_h = in_sea.retest(alternated, effect)
+    echo(f"diagnose: {effect.name} tested again on top of {alone.effect} in the sea alternated with it: "
+         f"{gain_t:.1f} nats training, {gain_h:.1f} held out: {'kept' if kept else 'withdrawn'}")
+    if kept is not None:
+        return diag, [], None
+    return replace(diag, winner=earlier), [effect.name], (alternated, made) if alone is earlier else None
+
+
 def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     from seatune.diagnosis.effects import EFFECT_NAMES, SEA_SIDE, library
     from seatune.diagnosis.residuals import describe
@@ -428,6 +457,10 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     train = data.roles == "train"
     meta = {"fingerprint": fp}
     alternated, rounds, withdrawn, with_sea = None, 0, [], None
+    dropped, done = [], None  # a later vessel effect the sea alternated with the earlier ones took over
+    if run.spec.sea.estimate and settings.alternation_rounds:
+        diag, dropped, done = retest_later_effect(run, vessel, diagnoser, channels, diag, augmented,
+                                                  settings.alternation_rounds, echo)
     alone = (diagnoser.without_sea_side(diag.winner)
              if run.spec.sea.estimate and settings.alternation_rounds and diag.winner is not None else None)
     if alone is not None:  # the vessel effects alternate alone; the sea-side correction is tested again after
@@ -438,8 +471,12 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     else:
         augmented.unlink(missing_ok=True)  # a previous diagnosis' effect no longer holds
     if run.spec.sea.estimate and any(e.name not in SEA_SIDE for e, _ in diag.named_effects):
-        sea_with_effects(run, vessel, parameters, diag.winner.phi, augmented, echo)
-        if settings.alternation_rounds:
+        if done is not None:  # the retest above alternated these effects with the sea already
+            alternated, rounds = done
+            augmented_vessel_yaml(vessel, replace(diag, winner=alternated), augmented)
+        else:
+            sea_with_effects(run, vessel, parameters, diag.winner.phi, augmented, echo)
+        if settings.alternation_rounds and done is None:
             alternated, rounds = alternate_with_sea(run, vessel, diagnoser, channels, diag, augmented,
                                                     settings.alternation_rounds, echo)
             if withdrawn:
@@ -455,7 +492,7 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     else:  # no vessel effect named: the sea stage's model stands
         run.artefact(DIAGNOSED_SEA_FILE).unlink(missing_ok=True)
         run.artefact(DIAGNOSED_NF_FILE).unlink(missing_ok=True)
-    table = diagnosis_table(diag, effects, alternated, rounds, withdrawn, with_sea)
+    table = diagnosis_table(diag, effects, alternated, rounds, withdrawn + dropped, with_sea)
     write_table(residual_table(data, diag), outs[1], RESIDUAL_UNITS, meta)
     write_table(table, outs[0], DIAGNOSIS_UNITS, meta)
     chosen = table[table["selected"]]

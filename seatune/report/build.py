@@ -522,6 +522,9 @@ def _decision(r) -> str:
         return "baseline: the loading refitted without an effect"
     p = r.false_alarm_p
     cross = r.cross_fold_gain
+    if getattr(r, "withdrawn", False):
+        return (f"named at step {r.step}, then withdrawn: tested again in the sea refitted through the other named "
+                "effects, it no longer passed")
     if r.selected:
         return (f"named at step {r.step}: the strongest eligible candidate"
                 + (f", in each fold of a 2-fold cross-validation (≥ {cross:.1f} nats)" if np.isfinite(cross) else "")
