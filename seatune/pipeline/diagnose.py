@@ -170,8 +170,9 @@ def diagnosis_table(diag, effects, alternated=None, rounds: int = 0, withdrawn=(
     named before it (`given`), the joint ones over the model without effect; gaps are the tuned model's against
     the model with the row's effects. `alternated`: the final model's Fit after `rounds` of alternation with the
     sea, its parameters on the last selected row (`fitted_with_sea`). `withdrawn`: sea-side corrections, or a later
-    vessel effect, the re-test in the alternated sea dropped (their rows `withdrawn`, no longer `selected`). `with_sea`: the final model's gaps
-    with the sea refitted through it (`Diagnoser.gaps_with_sea`), on the last selected row."""
+    vessel effect, the re-test in the alternated sea dropped (their rows `withdrawn`, no longer `selected`).
+    `with_sea`: the final model's gaps with the sea refitted through it (`Diagnoser.gaps_with_sea`), on the last
+    selected row."""
     from seatune.diagnosis.residuals import describe
 
     by_name = {e.name: e for e in effects}
