@@ -398,12 +398,11 @@ def retest_later_effect(run, vessel, diagnoser, channels, diag, augmented: Path,
     names withdrawn, and where it was withdrawn the earlier effects' alternation (Fit, rounds) the sea file holds):
     the earlier effects as the winner where the last no longer passes."""
     from seatune.diagnosis.effects import SEA_SIDE
-    from seatune.diagnosis.select import _members
 
     steps = [r for r in diag.rows if r["selected"]]
     if len(steps) < 2 or steps[-1]["added"] in SEA_SIDE or sum(r["added"] not in SEA_SIDE for r in steps) < 2:
         return diag, [], None
-    earlier, effect = steps[-2]["fit"], _members(diag.winner)[-1][0]
+    earlier, effect = steps[-2]["fit"], diag.named_effects[-1][0]
     alone = diagnoser.without_sea_side(earlier) or earlier  # the vessel effects alternate alone, as below
     augmented_vessel_yaml(vessel, replace(diag, winner=alone), augmented)
     sea_with_effects(run, vessel, diagnoser.parameters, alone.phi, augmented, echo)
@@ -477,13 +476,14 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
             augmented_vessel_yaml(vessel, replace(diag, winner=alternated), augmented)
         else:
             sea_with_effects(run, vessel, parameters, diag.winner.phi, augmented, echo)
-        if settings.alternation_rounds and done is None:
-            alternated, rounds = alternate_with_sea(run, vessel, diagnoser, channels, diag, augmented,
-                                                    settings.alternation_rounds, echo)
-            if withdrawn:
-                alternated, withdrawn = retest_sea_side(run, vessel, diagnoser, channels,
-                                                        replace(diag, winner=alternated), withdrawn, augmented, echo)
-                diag = replace(diag, winner=alternated)
+            if settings.alternation_rounds:
+                alternated, rounds = alternate_with_sea(run, vessel, diagnoser, channels, diag, augmented,
+                                                        settings.alternation_rounds, echo)
+                if withdrawn:
+                    alternated, withdrawn = retest_sea_side(run, vessel, diagnoser, channels,
+                                                            replace(diag, winner=alternated), withdrawn, augmented,
+                                                            echo)
+                    diag = replace(diag, winner=alternated)
         final = alternated if alternated is not None else diag.winner
         refitted = window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE)
         with_sea = run_diagnoser(run, vessel, parameters, refitted, phi_start).gaps_with_sea(
