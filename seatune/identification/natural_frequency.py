@@ -706,7 +706,8 @@ class ModePosterior(NamedTuple):
 def mode_posterior(model_omega: np.ndarray, measured: np.ndarray, measured_std: np.ndarray,
                    model_rel_std: float) -> ModePosterior:
     """ω_n of each DOF given the coupled modes `model_omega` (n draws of the loading prior × DOFs) and the measured
-    ω_n ± `measured_std` (NaN where a DOF has none), the model form off by N(0, `model_rel_std`) relative.
+    ω_n ± `measured_std` (NaN where a DOF has none; per draw where `measured` is n × DOFs: the estimator's bias
+    taken at each draw), the model form off by N(0, `model_rel_std`) relative.
 
     Given draw i the true ω_n is N(ω_i, (f ω_i)²) a priori, so the measurement fuses with it in closed form; the
     draws are weighted by the likelihood of every measured DOF at once (they share the loading), and the
