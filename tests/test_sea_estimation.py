@@ -460,7 +460,8 @@ def test_the_pitch_mode_feeds_back_only_an_r55_the_vessel_allows(finished_sample
     import re
 
     from seatune.io.run_yaml import Run
-    from seatune.pipeline.sea import PITCH_DERIVED, pitch_r55, sea_design
+    from seatune.pipeline.identify import PITCH_R55
+    from seatune.pipeline.sea import pitch_r55, sea_design
     from seatune.pipeline.vessel import open_run_vessel
     from tests.conftest import copy_of_sample
 
@@ -472,7 +473,7 @@ def test_the_pitch_mode_feeds_back_only_an_r55_the_vessel_allows(finished_sample
     assert sea_design(run).get("r55", [24.0])[0] == pytest.approx(float(refits[-1]) if refits else 24.0, abs=0.005)
     path = run.artefact("natural_frequencies.parquet")
     nat = pd.read_parquet(path)
-    row = (nat["window_id"] == "all") & (nat["derived"] == PITCH_DERIVED)
+    row = (nat["window_id"] == "all") & (nat["derived"] == PITCH_R55)
     assert row.sum() == 1
     for value, std, expected in [(25.0, 4.0, (25.0, 1.5)), (23.0, 0.4, (23.0, 0.4)), (30.1, 0.5, None)]:
         nat.loc[row, ["derived_value", "derived_std"]] = [value, std]

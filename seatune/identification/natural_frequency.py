@@ -701,6 +701,7 @@ class ModePosterior(NamedTuple):
     prior_mean: np.ndarray  # the model's ω_n over the loading prior [rad/s]
     prior_std: np.ndarray  # its spread, with the model-form error [rad/s]
     effective_draws: float  # Kish's effective sample size of the prior draws after weighting
+    weights: np.ndarray  # each draw's posterior weight (sums to 1): the loading given the modes
 
 
 def mode_posterior(model_omega: np.ndarray, measured: np.ndarray, measured_std: np.ndarray,
@@ -730,7 +731,7 @@ def mode_posterior(model_omega: np.ndarray, measured: np.ndarray, measured_std: 
     std = np.sqrt(np.maximum(w @ (var + mu ** 2) - mean ** 2, 0.0))
     prior_mean = model_omega.mean(axis=0)
     prior_std = np.sqrt(model_omega.var(axis=0) + np.mean(v_model, axis=0))
-    return ModePosterior(mean, std, prior_mean, prior_std, float(1.0 / np.sum(w ** 2)))
+    return ModePosterior(mean, std, prior_mean, prior_std, float(1.0 / np.sum(w ** 2)), w)
 
 
 def primary_natural_frequencies(nf: pd.DataFrame, measured_only: bool = False) -> pd.DataFrame:

@@ -554,6 +554,9 @@ def prior_draws(model, center, known=(), n: int = 1024, seed: int = 0):
     return Loading(**(base | values))
 
 
+PITCH_R55 = "r55 [m]"  # the derived row of r55 read from the pitch mode (pipeline.sea.pitch_r55 takes it)
+
+
 def fit_draw_count(model, known=()) -> int:
     """How many loadings of the prior each window's ω_n fit is repeated on (`fit_by_draw`): about three per term of
     a quadratic in the uncertain parameters, a power of two (Sobol points), 64 or 128."""
@@ -611,7 +614,10 @@ def posterior_rows(model, rows: list[dict], center, known, settings, shifted=())
     A DOF measured more than 3σ from the model over the whole prior is an effect the model lacks (a moonpool, a
     misplaced IMU), not a loading: it is left out of the loading weights, which it would drag to the prior's tail
     (on the bank's osv_imu_lever_arm_042 a heave 6.7σ off moved pitch from −1.2 % to +6.0 %), and its row is the
-    model's mode given the other modes, with a note; its measurement keeps its own row."""
+    model's mode given the other modes, with a note; its measurement keeps its own row.
+    r55's read from the pitch mode (a derived row) is its mean and std over the draws so weighted: the inversion at
+    the known loading (`derived_parameters`) holds xcg where the vessel YAML puts it, and near the heave–pitch
+    crossing it read osv_clean_000's r55 24.5 m against 25.9 m true."""
     from scipy.stats import norm
 
     from seatune.identification.natural_frequency import mode_posterior
@@ -658,6 +664,12 @@ def posterior_rows(model, rows: list[dict], center, known, settings, shifted=())
                     "ci_low": omega - z * std, "ci_high": omega + z * std,
                     "zeta": measured[dof]["zeta"], "model_prior": measured[dof]["model_prior"],
                     "prior_std": float(post.prior_std[i]), "reason": note})
+    if draws is not None and "Pitch" in measured and not apart[2] and "r55" in priors:
+        r55 = np.asarray(draws.r55, float)  # r55 given the modes, the other loading parameters marginalised
+        mean = float(post.weights @ r55)
+        pitch = next(r for r in out if r["dof"] == "Pitch")
+        out.append(pitch | {"derived": PITCH_R55, "derived_value": mean,
+                            "derived_std": float(np.sqrt(post.weights @ (r55 - mean) ** 2))})
     return out
 
 
@@ -836,8 +848,8 @@ def derived_parameters(model, known_loading, nat: list[dict]) -> list[dict]:
         fs_bounds = (gm_solid - 4.0 * max(gm, 0.05), gm_solid - 0.01)  # GM from 0.01 m to 4× the known GM
         inversions += [("Roll", "r44", (0.3 * r44, 3.0 * r44), f"r44 [m] (GM {gm:.3f} m)", lambda v: v),
                        ("Roll", "gmt_fs", fs_bounds, f"GM [m] (r44 {r44:.2f} m)", lambda v: gm_solid - v)]
-    if "Pitch" in best:
-        inversions.append(("Pitch", "r55", (0.3 * r55, 3.0 * r55), "r55 [m]", lambda v: v))
+    if "Pitch" in best and not any(r.get("derived") == PITCH_R55 for r in nat):  # posterior_rows read none
+        inversions.append(("Pitch", "r55", (0.3 * r55, 3.0 * r55), PITCH_R55, lambda v: v))
     for dof, parameter, bounds, label, to_value in inversions:
         r = best[dof]
         try:

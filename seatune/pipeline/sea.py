@@ -535,9 +535,6 @@ def posterior_parameters(run, vessel):
                       p.lower, p.upper) for p in tuning_parameters(run, vessel)]
 
 
-PITCH_DERIVED = "r55 [m]"  # identify's derived parameter of the pitch mode (pipeline.identify.derived_parameters)
-
-
 def mode_parameters(run, vessel) -> list:
     """r55 as identify last read it from the pitch mode, as a Parameter for the sea's design (`pitch_r55`), or []."""
     found, _ = pitch_r55(run, vessel)
@@ -545,10 +542,12 @@ def mode_parameters(run, vessel) -> list:
 
 
 def pitch_r55(run, vessel):
-    """(Parameter, "") of r55 as identify last read it from the pitch mode (the loading at which the coupled model's
-    pitch root is the measured ω_n), its std capped at the prior's (a wide interval must not fan the sea's design
-    out); else (None, why). A reading outside the vessel YAML's r55 bounds is not taken: something the model lacks
-    moved the pitch resonance (blind bank: an IMU lever arm read as r55 30.1 m against 25.0 m true)."""
+    """(Parameter, "") of r55 as identify last read it from the pitch mode (over the loading prior's draws weighted
+    by the measured modes, `identify.posterior_rows`), its std capped at the prior's (a wide interval must not fan
+    the sea's design out); else (None, why). A reading outside the vessel YAML's r55 bounds is not taken: something
+    the model lacks moved the pitch resonance (blind bank: an IMU lever arm read as r55 30.1 m against 25.0 m
+    true)."""
+    from seatune.pipeline.identify import PITCH_R55
     from seatune.tuning.interface import Parameter
 
     path = run.artefact("natural_frequencies.parquet")
@@ -557,7 +556,7 @@ def pitch_r55(run, vessel):
     if not path.exists():
         return None, "identify has not run"
     nat = pd.read_parquet(path)
-    row = nat[(nat["window_id"] == "all") & (nat["derived"] == PITCH_DERIVED)]
+    row = nat[(nat["window_id"] == "all") & (nat["derived"] == PITCH_R55)]
     if row.empty or not np.isfinite(row["derived_value"].iloc[0]):
         return None, "identify read no r55 from the pitch mode"
     base = float(vessel.base_loading.r55[0])
