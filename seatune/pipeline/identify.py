@@ -888,7 +888,7 @@ def identify_stage(run, model, echo=print, force: bool = False) -> dict:
     combined = nat[(nat["window_id"] == "all") & nat["derived"].isna() & (nat["method"] == "admittance_peak_sdof")]
     omega_n = dict(zip(combined["dof"], combined["omega_n"], strict=True))
     not_identified = {r.dof: r.reason for r in combined.itertuples() if not np.isfinite(r.omega_n)}
-    post = nat[nat["method"] == "posterior"]
+    post = nat[(nat["method"] == "posterior") & nat["derived"].isna()]
     posterior = dict(zip(post["dof"], post["omega_n"], strict=True))
     return {"skipped": False, "windows": int(windows["accepted"].sum()),
             "low_confidence": sum(w["low_confidence"] for w in per_window),

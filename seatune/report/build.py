@@ -399,7 +399,7 @@ def natural_frequencies_section(inp: ReportInputs, tuned: dict[str, float] | Non
                                       "(roots of det(C − ω²(M + A(ω))): roll turns about its roll centre, pitch about "
                                       "its pitch centre; ζ: damping ratio of the SDOF fit)",
                     formats={"measured vs prior": _pct, "measured vs tuned": _pct}, digits=4)
-    post = nf[(nf["window_id"] == "all") & (nf["method"] == "posterior")]
+    post = nf[(nf["window_id"] == "all") & (nf["method"] == "posterior") & nf["derived"].isna()]
     if len(post):
         p = pd.DataFrame({"DOF": post["dof"].to_numpy(), "ω_n": post["omega_n"].to_numpy(),
                           "95 % interval": [f"{lo:.3f} – {hi:.3f}" for lo, hi in zip(post["ci_low"], post["ci_high"],
