@@ -590,11 +590,11 @@ def debiased_by_draw(rows: list[dict], dof: str, draws, roots: np.ndarray, prior
     for r in wins:
         y = np.log(r["fit_by_draw"])
         ok = np.isfinite(y)
-        if ok.sum() < x_fit.shape[1] + 8:
+        if len(y) != len(fitted) or ok.sum() < x_fit.shape[1] + 8:  # other loadings, or too few fits
             return None
         coef, *_ = np.linalg.lstsq(x_fit[ok], y[ok], rcond=None)
         ratios.append(r["raw_omega"] / np.exp(x_all @ coef))
-        stds.append((r["ci_high"] - r["ci_low"]) / 3.92)
+        stds.append(np.sqrt(max(((r["ci_high"] - r["ci_low"]) / 3.92) ** 2 - r.get("tp_std", 0.0) ** 2, 1e-18)))
     ratios = np.array(ratios)  # (windows, draws)
     if len(wins) >= 3:
         combined = np.median(ratios, axis=0)
