@@ -476,6 +476,19 @@ class Diagnoser:
         the true effects still named 30–3500 (a misalignment 30.2, tanks 43.5 and 70.8, a moonpool 55.7)."""
         return float(min(map_tasks(partial(self._fold_gain, fit, step_base), (0, 1))))
 
+    @property
+    def null_level(self) -> float:
+        """The calibrated test's false-alarm level (NaN when the decision is not calibrated)."""
+        return self.null.false_alarm if self.null is not None and self.null.replicates > 0 else float("nan")
+
+    def fold_fits(self, fit: Fit, fold: int) -> tuple[Diagnoser, Fit, Fit]:
+        """(this Diagnoser with every other window held out — fold 0 trains on the even ones —, the loading refitted
+        there without effect, `fit`'s effect refitted there) for a test of `fit` outside this Diagnoser's sea."""
+        rep = self._with_data(roles=np.where(np.arange(len(self.data.window_ids)) % 2 == fold, "train", "holdout"))
+        base = rep.fit(None)
+        scanned, warm = rep.fit(fit.effect_used, start=base), rep._fit(fit.effect_used, (), None, x_from=fit)
+        return rep, base, min(scanned, warm, key=lambda f: f.nll_train)
+
     def _fold_gain(self, fit: Fit, step_base: Fit, fold: int) -> float:
         rep = self._with_data(roles=np.where(np.arange(len(self.data.window_ids)) % 2 == fold, "train", "holdout"))
         base = (rep.fit(None) if step_base.effect_used is None  # the effects named so far from where they stood

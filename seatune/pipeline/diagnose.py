@@ -36,6 +36,8 @@ DIAGNOSIS_UNITS = {
     "null_gain_q95": "dimensionless; nat, the null's 95 % quantile of the score (held-out gain)",
     "cross_fold_gain": "dimensionless; nat, the smaller held-out gain of a 2-fold cross-validation over all windows "
                        "(a vessel-side effect is named only above the held-out threshold); NaN: not tested",
+    "own_sea_gain": "dimensionless; nat, the smallest held-out gain with the held-out windows' sea refitted through "
+                    "the candidate (all windows and each 2-fold half; held_out_in_own_sea); NaN: not tested",
     "at_bound": "", "widened": "", "eligible": "", "selected": "", "out_of_sample": "",
     "gap_before_train": "dimensionless",
     "gap_after_train": "dimensionless", "gap_before_holdout": "dimensionless",
@@ -196,7 +198,8 @@ def diagnosis_table(diag, effects, alternated=None, rounds: int = 0, withdrawn=(
             "gain_holdout": r["gain_holdout"], "bic_penalty": r["bic_penalty"],
             "joint_gain_train": r["joint_gain_train"], "joint_gain_holdout": r["joint_gain_holdout"],
             "false_alarm_p": r["false_alarm_p"], "null_gain_q95": r["null_gain_q95"],
-            "cross_fold_gain": r["cross_fold_gain"], "at_bound": r["at_bound"],
+            "cross_fold_gain": r["cross_fold_gain"], "own_sea_gain": r.get("own_sea_gain", np.nan),
+            "at_bound": r["at_bound"],
             "widened": ", ".join(k.removeprefix(own) for k in f.widened), "eligible": bool(r["eligible"]),
             "selected": bool(r["selected"]), "out_of_sample": out_of_sample(g) if f.n_params else "",
             **{f"{k}_{when}_{role}": g[f"{k}_{role}_{when}"] for k in ("gap", "sigma_error")
@@ -418,6 +421,55 @@ def retest_later_effect(run, vessel, diagnoser, channels, diag, augmented: Path,
     return replace(diag, winner=earlier), [effect.name], (alternated, made) if alone is earlier else None
 
 
+def held_out_in_own_sea(run, vessel, diagnoser, channels, diag, augmented: Path, echo=print):
+    """Where nothing was named, the vessel candidate with the largest training gain over BIC's penalty (no parameter
+    at a bound; it failed held out or across the folds), tested with each model in its own sea: the held-out windows'
+    sea refitted
+    through the candidate (`sea_with_effects`), the model without effect keeping the sea stage's, which had been
+    fitted through it. The sea stage fits each window's sea to its own motions, so a sensor effect such as a
+    misalignment is absorbed there, in the held-out windows as in the training ones. Named when its held-out gain
+    so measured, and that of each half of a 2-fold split of the windows (fitted on one half, its sea refitted, held
+    out on the other), exceed HOLDOUT_MIN. Returns (the diagnosis, {candidate: gains} or None)."""
+    from seatune.diagnosis.effects import SEA_SIDE
+    from seatune.diagnosis.select import HOLDOUT_MIN, _at_bound
+
+    if diag.winner is not None:
+        return diag, None
+    failed = [r for r in diag.rows if r["added"] not in SEA_SIDE and r["added"] != "none" and not r["at_bound"]
+              and r["gain_train"] > r["bic_penalty"] and np.isfinite(r["gain_holdout"])
+              and not r["false_alarm_p"] > diagnoser.null_level]  # the calibrated test, where run, stands
+    if not failed:
+        return diag, None
+    row = max(failed, key=lambda r: r["gain_train"] - r["bic_penalty"])
+    base = diag.base
+
+    def own_sea_gain(d, base_fit, fit) -> float:
+        augmented_vessel_yaml(vessel, replace(diag, winner=fit), augmented)
+        sea_with_effects(run, vessel, diagnoser.parameters, fit.phi, augmented, echo=lambda *a: None)
+        refitted = window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE)
+        own = run_diagnoser(run, vessel, diagnoser.parameters, replace(refitted, roles=d.data.roles),
+                            diagnoser.phi_start)
+        return float(base_fit.nll_holdout - own.nll(fit.phi, fit.effect_used, fit.params, which=own.holdout))
+
+    gains = {"held_out": own_sea_gain(diagnoser, base, row["fit"])}
+    if gains["held_out"] > HOLDOUT_MIN:
+        for fold in (0, 1):
+            rep, fold_base, fold_fit = diagnoser.fold_fits(row["fit"], fold)
+            gains[f"fold_{fold}"] = own_sea_gain(rep, fold_base, fold_fit) \
+                if not _at_bound(fold_fit.effect_used, fold_fit.params) else -np.inf
+    passed = min(gains.values()) > HOLDOUT_MIN
+    echo(f"diagnose: {row['added']} held out in its own sea: " + ", ".join(f"{k} {v:.1f}" for k, v in gains.items())
+         + f" nats: {'named' if passed else 'not named'}")
+    row["own_sea_gain"] = min(gains.values())
+    augmented.unlink(missing_ok=True)
+    run.artefact(DIAGNOSED_SEA_FILE).unlink(missing_ok=True)
+    if not passed:
+        return diag, gains
+    row["eligible"] = row["selected"] = True
+    r1, sd1, _ = diagnoser.residuals(row["fit"].phi, row["fit"].effect_used, row["fit"].params)
+    return replace(diag, winner=row["fit"], residual_after=(r1, sd1)), gains
+
+
 def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     from seatune.diagnosis.effects import EFFECT_NAMES, SEA_SIDE, library
     from seatune.diagnosis.residuals import describe
@@ -454,6 +506,8 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     effects = library(settings.effects, moonpool_position=settings.moonpool_position, vessel=vessel,
                       omega_roll=diagnoser.model.parts(phi_start).omega_roll)
     diag = diagnoser.run(effects, max_named=settings.max_effects)
+    if run.spec.sea.estimate and settings.alternation_rounds:
+        diag, _ = held_out_in_own_sea(run, vessel, diagnoser, channels, diag, augmented, echo)
     train = data.roles == "train"
     meta = {"fingerprint": fp}
     alternated, rounds, withdrawn, with_sea = None, 0, [], None
