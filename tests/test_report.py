@@ -510,3 +510,19 @@ def test_a_step_withdrawn_after_the_sea_refit_is_said_so():
                eligible=True, gain_holdout=66.8, gain_train=85.7, bic_penalty=10.8, at_bound="", widened="")
     assert _decision(SimpleNamespace(**row, withdrawn=True)).startswith("named at step 2, then withdrawn")
     assert _decision(SimpleNamespace(**row, withdrawn=False)) == "eligible; a stronger candidate was named"
+
+
+def test_a_candidate_named_in_its_own_sea_is_said_so():
+    """A candidate that failed held out in the sea stage's sea but passed with the held-out sea refitted through it
+    (diagnosis.parquet `own_sea_gain`): the evidence table gives that test, not the failed held-out gain; one that
+    failed it too says so."""
+    from types import SimpleNamespace
+
+    from seatune.report.build import _decision
+
+    row = dict(effect="imu_misalignment", step=1, false_alarm_p=np.nan, cross_fold_gain=np.nan, eligible=True,
+               gain_holdout=-0.5, gain_train=864.8, bic_penalty=9.3, at_bound="", widened="", withdrawn=False)
+    named = _decision(SimpleNamespace(**row, selected=True, own_sea_gain=83.7))
+    assert named.startswith("named at step 1: held out in its own sea") and "83.7" in named
+    failed = _decision(SimpleNamespace(**row | {"eligible": False}, selected=False, own_sea_gain=-5.4))
+    assert failed.startswith("passed over: held-out gain ≤ 4 nats") and "its own sea" in failed and "-5.4" in failed

@@ -423,13 +423,13 @@ def retest_later_effect(run, vessel, diagnoser, channels, diag, augmented: Path,
 
 def held_out_in_own_sea(run, vessel, diagnoser, channels, diag, augmented: Path, echo=print):
     """Where nothing was named, the vessel candidate with the largest training gain over BIC's penalty (no parameter
-    at a bound; it failed held out or across the folds), tested with each model in its own sea: the held-out windows'
-    sea refitted
-    through the candidate (`sea_with_effects`), the model without effect keeping the sea stage's, which had been
-    fitted through it. The sea stage fits each window's sea to its own motions, so a sensor effect such as a
-    misalignment is absorbed there, in the held-out windows as in the training ones. Named when its held-out gain
-    so measured, and that of each half of a 2-fold split of the windows (fitted on one half, its sea refitted, held
-    out on the other), exceed HOLDOUT_MIN. Returns (the diagnosis, {candidate: gains} or None)."""
+    at a bound; it failed held out or across the folds, not by the calibrated test), tested with each model in its
+    own sea: the held-out windows' sea refitted through the candidate (`sea_with_effects`), the model without effect
+    keeping the sea stage's sea, which was fitted through that model. The sea stage fits each window's sea to its own
+    motions, so a sensor effect such as a misalignment is absorbed there, in the held-out windows as in the training
+    ones. Named when its held-out gain so measured, and that of each half of a 2-fold split of the windows (fitted on
+    one half, its sea refitted, held out on the other), exceed HOLDOUT_MIN. Returns (the diagnosis, {test: gain} or
+    None)."""
     from seatune.diagnosis.effects import SEA_SIDE
     from seatune.diagnosis.select import HOLDOUT_MIN, _at_bound
 

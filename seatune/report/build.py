@@ -525,6 +525,10 @@ def _decision(r) -> str:
     if getattr(r, "withdrawn", False):
         return (f"named at step {r.step}, then withdrawn: tested again in the sea refitted through the other named "
                 "effects, it no longer passed")
+    own = getattr(r, "own_sea_gain", np.nan)
+    if r.selected and np.isfinite(own):
+        return (f"named at step {r.step}: held out in its own sea (the held-out windows' sea refitted through it), "
+                f"and in each half of a 2-fold split so tested, ≥ {own:.1f} nats")
     if r.selected:
         return (f"named at step {r.step}: the strongest eligible candidate"
                 + (f", in each fold of a 2-fold cross-validation (≥ {cross:.1f} nats)" if np.isfinite(cross) else "")
@@ -543,6 +547,9 @@ def _decision(r) -> str:
         why.append(f"fits some windows only: 2-fold cross-validation gain {cross:.1f} nats ≤ {HOLDOUT_MIN:g}")
     if not why and np.isfinite(p) and not r.eligible:
         why.append(f"not significant: false-alarm p {p:.2g} against the calibrated null")
+    if np.isfinite(own):
+        why.append(f"held out in its own sea, or in a half of a 2-fold split so tested: {own:.1f} nats ≤ "
+                   f"{HOLDOUT_MIN:g}")
     if r.eligible and not why:
         return "eligible; a stronger candidate was named"
     return "passed over: " + "; ".join(why or ["not eligible"])
