@@ -481,22 +481,20 @@ class Diagnoser:
         """The calibrated test's false-alarm level (NaN when the decision is not calibrated)."""
         return self.null.false_alarm if self.null is not None and self.null.replicates > 0 else float("nan")
 
-    def fold_fits(self, fit: Fit, fold: int) -> tuple[Diagnoser, Fit, Fit]:
-        """(this Diagnoser with every other window held out — fold 0 trains on the even ones —, the loading refitted
-        there without effect, `fit`'s effect refitted there) for a test of `fit` outside this Diagnoser's sea."""
+    def fold_fits(self, fit: Fit, fold: int, step_base: Fit | None = None) -> tuple[Diagnoser, Fit, Fit]:
+        """(this Diagnoser with every other window held out — fold 0 trains on the even ones —, the step's model
+        there (`step_base`'s effects from where they stood; default none), `fit`'s effect refitted there)."""
         rep = self._with_data(roles=np.where(np.arange(len(self.data.window_ids)) % 2 == fold, "train", "holdout"))
-        base = rep.fit(None)
-        scanned, warm = rep.fit(fit.effect_used, start=base), rep._fit(fit.effect_used, (), None, x_from=fit)
-        return rep, base, min(scanned, warm, key=lambda f: f.nll_train)
-
-    def _fold_gain(self, fit: Fit, step_base: Fit, fold: int) -> float:
-        rep = self._with_data(roles=np.where(np.arange(len(self.data.window_ids)) % 2 == fold, "train", "holdout"))
-        base = (rep.fit(None) if step_base.effect_used is None  # the effects named so far from where they stood
+        base = (rep.fit(None) if step_base is None or step_base.effect_used is None
                 else rep._fit(step_base.effect_used, (), None, x_from=step_base))
         # the fold's own optimum: from its scan, or from where the fit on all windows stood (a misalignment's yaw
         # scanned from zero on half the windows of osv_imu_misalignment_048 stopped at +5.6° against −7.5°)
         scanned, warm = rep.fit(fit.effect_used, start=base), rep._fit(fit.effect_used, (), None, x_from=fit)
-        return base.nll_holdout - min(scanned, warm, key=lambda f: f.nll_train).nll_holdout
+        return rep, base, min(scanned, warm, key=lambda f: f.nll_train)
+
+    def _fold_gain(self, fit: Fit, step_base: Fit, fold: int) -> float:
+        _, base, best = self.fold_fits(fit, fold, step_base)
+        return base.nll_holdout - best.nll_holdout
 
     def _take_roles(self) -> None:
         """The training / held-out masks and the training bins' count from the data's window roles."""
