@@ -458,8 +458,8 @@ def held_out_in_own_sea(run, vessel, diagnoser, channels, diag, augmented: Path,
             gains[f"fold_{fold}"] = own_sea_gain(rep, fold_base, fold_fit) \
                 if not _at_bound(fold_fit.effect_used, fold_fit.params) else -np.inf
     passed = min(gains.values()) > HOLDOUT_MIN
-    echo(f"diagnose: {row['added']} held out in its own sea: " + ", ".join(f"{k} {v:.1f}" for k, v in gains.items())
-         + f" nats: {'named' if passed else 'not named'}")
+    echo(f"diagnose ↔ own sea: {row['added']} held out in its own sea: "  # not the stage's one `diagnose:` line
+         + ", ".join(f"{k} {v:.1f}" for k, v in gains.items()) + f" nats: {'named' if passed else 'not named'}")
     row["own_sea_gain"] = min(gains.values())
     augmented.unlink(missing_ok=True)
     run.artefact(DIAGNOSED_SEA_FILE).unlink(missing_ok=True)
