@@ -345,6 +345,15 @@ def run_diagnoser(run, vessel, parameters, data, phi_start, null=None):
                      dir_std_deg=unc.dir_std_deg, null=null)
 
 
+def in_refitted_sea(run, vessel, diagnoser, channels, roles=None):
+    """`diagnoser`'s loading parameters and start in the sea last refitted through the named effects
+    (DIAGNOSED_SEA_FILE), with the tune stage's window roles or `roles`; no calibration."""
+    data = window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE)
+    if roles is not None:
+        data = replace(data, roles=roles)
+    return run_diagnoser(run, vessel, diagnoser.parameters, data, diagnoser.phi_start)
+
+
 def alternate_with_sea(run, vessel, diagnoser, channels, diag, augmented: Path, max_rounds: int, echo=print,
                        rel_tol: float = 0.01):
     """Diagnose alternated with the sea (issue 16, as Han A6/A7 alternate sea and vessel): the named effects and
@@ -355,8 +364,7 @@ def alternate_with_sea(run, vessel, diagnoser, channels, diag, augmented: Path, 
     sea; the augmented vessel YAML takes the alternated values. Returns (the final Fit, the rounds made)."""
     fit, moves = diag.winner, []
     for _ in range(max_rounds):
-        data = window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE)
-        new = run_diagnoser(run, vessel, diagnoser.parameters, data, diagnoser.phi_start).refine(fit)
+        new = in_refitted_sea(run, vessel, diagnoser, channels).refine(fit)
         moved = max(abs(new.params[q.name] - fit.params[q.name])
                     / max(rel_tol * abs(fit.params[q.name]), 1e-3 * (q.upper - q.lower))
                     for q in fit.effect_used.parameters)  # in units of the tolerance
@@ -379,8 +387,7 @@ def retest_sea_side(run, vessel, diagnoser, channels, diag, corrections, augment
     alternated with them (`Diagnoser.retest`); one that still passes joins the final model and
     augmented_vessel.yaml again. Returns (the final Fit, the names withdrawn)."""
     fit, withdrawn = diag.winner, []
-    alternated_sea = run_diagnoser(run, vessel, diagnoser.parameters,
-                                   window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE), diagnoser.phi_start)
+    alternated_sea = in_refitted_sea(run, vessel, diagnoser, channels)
     for effect in corrections:
         kept, gain_t, gain_h = alternated_sea.retest(fit, effect)
         echo(f"diagnose: {effect.name} tested again in the sea alternated with the vessel effects: "
@@ -411,8 +418,7 @@ def retest_later_effect(run, vessel, diagnoser, channels, diag, augmented: Path,
     sea_with_effects(run, vessel, diagnoser.parameters, alone.phi, augmented, echo)
     alternated, made = alternate_with_sea(run, vessel, diagnoser, channels, replace(diag, winner=alone), augmented,
                                           rounds, echo)
-    in_sea = run_diagnoser(run, vessel, diagnoser.parameters,
-                           window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE), diagnoser.phi_start)
+    in_sea = in_refitted_sea(run, vessel, diagnoser, channels)
     kept, gain_t, gain_h = in_sea.retest(alternated, effect)
     echo(f"diagnose: {effect.name} tested again on top of {alone.effect} in the sea alternated with it: "
          f"{gain_t:.1f} nats training, {gain_h:.1f} held out: {'kept' if kept else 'withdrawn'}")
@@ -446,9 +452,7 @@ def held_out_in_own_sea(run, vessel, diagnoser, channels, diag, augmented: Path,
     def own_sea_gain(d, base_fit, fit) -> float:
         augmented_vessel_yaml(vessel, replace(diag, winner=fit), augmented)
         sea_with_effects(run, vessel, diagnoser.parameters, fit.phi, augmented, echo=lambda *a: None)
-        refitted = window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE)
-        own = run_diagnoser(run, vessel, diagnoser.parameters, replace(refitted, roles=d.data.roles),
-                            diagnoser.phi_start)
+        own = in_refitted_sea(run, vessel, diagnoser, channels, roles=d.data.roles)
         return float(base_fit.nll_holdout - own.nll(fit.phi, fit.effect_used, fit.params, which=own.holdout))
 
     gains = {"held_out": own_sea_gain(diagnoser, base, row["fit"])}
@@ -539,8 +543,7 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
                                                             echo)
                     diag = replace(diag, winner=alternated)
         final = alternated if alternated is not None else diag.winner
-        refitted = window_set(run, vessel, channels, sea_file=DIAGNOSED_SEA_FILE)
-        with_sea = run_diagnoser(run, vessel, parameters, refitted, phi_start).gaps_with_sea(
+        with_sea = in_refitted_sea(run, vessel, diagnoser, channels).gaps_with_sea(
             diagnoser.residuals(diag.phi_before), final)
         identify_in_diagnosed_sea(run, vessel, meta, echo, belief=loading_belief(run, vessel, parameters, final.phi),
                                   named=[e.name for e, _ in diag.named_effects])
