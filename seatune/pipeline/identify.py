@@ -271,6 +271,14 @@ def aggregate_rows(per_window: list[dict], raos: pd.DataFrame, settings) -> list
     return out
 
 
+def _window_weights(rows: list[dict]) -> np.ndarray:
+    """Each window's inverse variance in `_combine`: its interval without the part the hindcast's Tp error
+    (`tp_std`) shares with the other windows."""
+    shared = np.array([r.get("tp_std", 0.0) for r in rows])
+    std = np.array([(r["ci_high"] - r["ci_low"]) / 3.92 for r in rows])
+    return 1.0 / np.maximum(std**2 - shared**2, 1e-18)
+
+
 def _combine(rows: list[dict], dof: str, method: str, prior_omega: float) -> dict | None:
     """One value over windows (window_id 'all'). With three or more windows, the median: a window's estimate
     has heavy-tailed errors its interval cannot show (the hindcast's spectral shape at the resonance, heave-pitch
@@ -282,8 +290,7 @@ def _combine(rows: list[dict], dof: str, method: str, prior_omega: float) -> dic
     if not rows:
         return None
     shared = np.array([r.get("tp_std", 0.0) for r in rows])
-    std = np.sqrt(np.maximum(np.array([(r["ci_high"] - r["ci_low"]) / 3.92 for r in rows]) ** 2 - shared**2, 1e-18))
-    w = 1.0 / std**2
+    w = _window_weights(rows)
     om = np.array([r["omega_n"] for r in rows])
     mean = float((w * om).sum() / w.sum())
     sd = float(1.0 / np.sqrt(w.sum()))
@@ -586,7 +593,7 @@ def debiased_by_draw(rows: list[dict], dof: str, draws, roots: np.ndarray, prior
         return np.column_stack([np.ones(len(z)), z, *pairs])
 
     x_fit, x_all = features(fitted), features(draws)
-    ratios, stds = [], []
+    ratios = []
     for r in wins:
         y = np.log(r["fit_by_draw"])
         ok = np.isfinite(y)
@@ -594,12 +601,11 @@ def debiased_by_draw(rows: list[dict], dof: str, draws, roots: np.ndarray, prior
             return None
         coef, *_ = np.linalg.lstsq(x_fit[ok], y[ok], rcond=None)
         ratios.append(r["raw_omega"] / np.exp(x_all @ coef))
-        stds.append(np.sqrt(max(((r["ci_high"] - r["ci_low"]) / 3.92) ** 2 - r.get("tp_std", 0.0) ** 2, 1e-18)))
     ratios = np.array(ratios)  # (windows, draws)
     if len(wins) >= 3:
         combined = np.median(ratios, axis=0)
     else:
-        w = 1.0 / np.square(stds)
+        w = _window_weights(wins)
         combined = w @ ratios / w.sum()
     return roots * combined
 
