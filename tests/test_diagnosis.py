@@ -128,6 +128,19 @@ def test_lever_arm_equals_the_channel_at_the_shifted_point(sample_model, spectra
         assert np.allclose(parts.transfer[:, :, trials.CHANNELS.index(name)], t, rtol=1e-12, atol=1e-12)
 
 
+def test_the_channels_a_lever_arm_leaves_untouched_keep_their_transfer_functions(sample_model, spectral_model):
+    """`Effect.untouched` (the channels diagnose fits a sea from to test the effect): a lever arm's are exactly those
+    whose transfer functions it leaves as they were; a misalignment and a tank claim none."""
+    parts = spectral_model.parts(PHI)
+    base = parts.transfer.copy()
+    EFFECT["imu_lever_arm"].apply(parts, {"dx": -48.0, "dy": 3.0, "dz": -2.0}, spectral_model)
+    same = [c for j, c in enumerate(trials.CHANNELS) if np.array_equal(parts.transfer[:, :, j], base[:, :, j])]
+    assert EFFECT["imu_lever_arm"].untouched(sample_model, trials.CHANNELS) == same
+    assert {"roll", "pitch"} <= set(same) and "imu_fz" not in same
+    assert EFFECT["imu_misalignment"].untouched(sample_model, trials.CHANNELS) is None
+    assert EFFECT["anti_roll_tank"].untouched(sample_model, trials.CHANNELS) is None
+
+
 def test_misalignment_is_the_first_order_rotation_of_the_sensor_axes(sample_model, spectral_model):
     """A yaw mounting offset ψ mixes roll and pitch as R_z(ψ)ᵀ does (scipy's rotation, to first order)."""
     from scipy.spatial.transform import Rotation

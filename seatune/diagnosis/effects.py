@@ -54,6 +54,11 @@ class Effect:
     def applicable(self, vessel, channels) -> bool:
         return True
 
+    def untouched(self, vessel, channels) -> list[str] | None:
+        """The `channels` this effect leaves exactly as they were (a sea fitted from them alone cannot have absorbed
+        it); None: every channel moves with the ship's dynamics."""
+        return None
+
     def scan_values(self, parts0, bands) -> dict[str, tuple[float, ...]]:
         """Start values to scan per parameter: the declared scan plus the centres of residual bands."""
         return with_band_peaks({p.name: p.scan for p in self.parameters if p.scan}, self.parameters, bands)
@@ -288,6 +293,10 @@ class ImuLeverArm(Effect):
     def applicable(self, vessel, channels):
         specs = {c.name: c for c in vessel.spec.channels}
         return any(specs[c].sensor == self.sensor and specs[c].kind in self.kinds for c in channels)
+
+    def untouched(self, vessel, channels):  # the angles and rates: a lever arm moves only the translations
+        specs = {c.name: c for c in vessel.spec.channels}
+        return [c for c in channels if not (specs[c].sensor == self.sensor and specs[c].kind in self.kinds)]
 
     def apply(self, parts, params, model):
         d = np.array([params["dx"], params["dy"], params["dz"]])

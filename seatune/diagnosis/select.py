@@ -332,7 +332,7 @@ class Diagnoser:
         `phi_before`: the tuned loading the gap is measured from (default the start); "refit": the loading refitted
         here without any effect (what a tuning on these windows gives)."""
         wave_given = self.data.wave
-        base = self._base_fit()
+        base = self.base_fit()
         if isinstance(phi_before, str):
             phi_before = base.phi
         phi_before = self.phi_start if phi_before is None else np.asarray(phi_before, dtype=float)
@@ -436,7 +436,7 @@ class Diagnoser:
                 "selected": False,
                 "false_alarm_p": np.nan, "null_gain_q95": np.nan, "cross_fold_gain": np.nan}
 
-    def _base_fit(self) -> Fit:
+    def base_fit(self) -> Fit:
         """The loading refitted without effect; first the windows' sea states as the data see them when the
         hindcast's Tp and direction are uncertain."""
         base = self.fit(None)

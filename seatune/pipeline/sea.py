@@ -338,10 +338,11 @@ def partition_rows(window_id: str, est, heading_deg: float, channels, priors, fi
 
 
 def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, artefact: str = "sea_states.parquet",
-              vessel_path=None) -> dict:
+              vessel_path=None, channels: list[str] | None = None) -> dict:
     """`parameters`: the loading belief whose RAOs (mean and ±√3σ design) the fit uses; default the priors of
     the tuned parameters (the alternation passes the tuned posterior). `artefact` other than sea_states.parquet
-    (diagnose's DIAGNOSED_SEA_FILE): only the full fit, with the vessel read from `vessel_path`."""
+    (diagnose's DIAGNOSED_SEA_FILE): only the full fit, with the vessel read from `vessel_path`, from `channels`
+    (default the run's)."""
     from seatune.errors import UserError
     from seatune.identification.sea_estimation import cross_spectra
     from seatune.io.hindcast_readers import read_hindcast
@@ -364,6 +365,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
             "uncertainty": run.spec.hindcast.uncertainty.model_dump(),
             "parameters": list(run.spec.tuning.parameters),
             "known": run.spec.identify.known,
+            **({"channels": channels} if channels else {}),
         },
     )
     out_roll = run.artefact(ROLL_FREE_FILE)
@@ -376,7 +378,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
         return {"skipped": True}
     motions, windows = MotionTable(src[0]), pd.read_parquet(src[1])
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
-    channels = settings.channels or sea_channels(vessel, set(motions.columns))
+    channels = channels or settings.channels or sea_channels(vessel, set(motions.columns))
     unknown = [c for c in channels if c not in motions.columns or c not in {ch.name for ch in vessel.channels}]
     if unknown:
         raise UserError(str(run.path), "sea.channels", f"not both a vessel channel and a motion column: "

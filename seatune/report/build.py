@@ -524,7 +524,11 @@ def _decision(r) -> str:
     cross = r.cross_fold_gain
     if getattr(r, "withdrawn", False):
         return (f"named at step {r.step}, then withdrawn: tested again in the sea refitted through the other named "
-                "effects, it no longer passed")
+                "effects, it no longer passed, or a vessel effect found in a sea that had not absorbed it took over")
+    untouched = getattr(r, "untouched_sea_gain", np.nan)
+    if r.selected and np.isfinite(untouched):
+        return (f"named at step {r.step}: held out in a sea fitted from the channels it leaves untouched, and in each "
+                f"half of a 2-fold split there, ≥ {untouched:.1f} nats")
     own = getattr(r, "own_sea_gain", np.nan)
     if r.selected and np.isfinite(own):
         return (f"named at step {r.step}: held out in its own sea (the held-out windows' sea refitted through it), "
@@ -547,6 +551,9 @@ def _decision(r) -> str:
         why.append(f"fits some windows only: 2-fold cross-validation gain {cross:.1f} nats ≤ {HOLDOUT_MIN:g}")
     if not why and np.isfinite(p) and not r.eligible:
         why.append(f"not significant: false-alarm p {p:.2g} against the calibrated null")
+    if np.isfinite(untouched):
+        why.append(f"held out in a sea fitted from the channels it leaves untouched, or in a half of a 2-fold split "
+                   f"there: {untouched:.1f} nats ≤ {HOLDOUT_MIN:g}")
     if np.isfinite(own):
         why.append(f"held out in its own sea, or in a half of a 2-fold split so tested: {own:.1f} nats ≤ "
                    f"{HOLDOUT_MIN:g}")
