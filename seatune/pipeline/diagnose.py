@@ -499,8 +499,8 @@ def untouched_sea(run, vessel, diagnoser, channels, effect, phi):
 
 
 def _take_untouched_fit(diagnoser, diag, row, fit):
-    """`row` (a step-1 candidate) made the winner with `fit`, found in its untouched sea: its likelihoods, gains,
-    gaps and bands left as they are in the sea stage's sea, where the other candidates were compared."""
+    """`row` (a step-1 candidate) made the winner with `fit`, found in its untouched sea; the row's likelihoods,
+    gains, gaps and bands measured in the sea stage's sea, where the other candidates were compared."""
     from seatune.diagnosis import residuals as res
 
     effect = fit.effect_used
@@ -672,7 +672,8 @@ def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
     return {"skipped": False, "windows": len(data.window_ids), "holdout": int((~train).sum()),
             "candidates": int((table["step"] == 1).sum()) - 1, "named": diag.named,
             "steps": [{"effect": r.effect, "gain_holdout": float(r.gain_holdout),
-                       "false_alarm_p": float(r.false_alarm_p), "fitted": json.loads(r.fitted_with_sea or r.fitted)}
+                       "untouched_sea_gain": float(r.untouched_sea_gain), "false_alarm_p": float(r.false_alarm_p),
+                       "fitted": json.loads(r.fitted_with_sea or r.fitted)}
                       for r in chosen.itertuples()],
             "not_significant": [f"{r.effect} (p {r.false_alarm_p:.2g})" for r in table.itertuples()
                                 if np.isfinite(r.false_alarm_p) and not r.eligible],

@@ -83,6 +83,8 @@ def _diagnose_line(s: dict, seconds: float) -> str:
             fitted = own_parameters_text(step["fitted"])
             p = step["false_alarm_p"]
             tested = f", false-alarm p {p:.2g}" if p == p else ""
+            u = step.get("untouched_sea_gain", float("nan"))
+            tested += f"; ≥ {u:.1f} in a sea fitted from the channels it leaves untouched" if u == u else ""
             steps.append(f"{step['effect']} ({fitted}; held-out gain {step['gain_holdout']:.1f} nats{tested})")
         verdict = f"named {', then '.join(steps)}, {gap}; augmented vessel: {s['augmented']}"
     elif s["bands_before"]:
