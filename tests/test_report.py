@@ -526,3 +526,23 @@ def test_a_candidate_named_in_its_own_sea_is_said_so():
     assert named.startswith("named at step 1: held out in its own sea") and "83.7" in named
     failed = _decision(SimpleNamespace(**row | {"eligible": False}, selected=False, own_sea_gain=-5.4))
     assert failed.startswith("passed over: held-out gain ≤ 4 nats") and "its own sea" in failed and "-5.4" in failed
+
+
+def test_a_candidate_tested_in_its_untouched_sea_is_said_so():
+    """A lever arm named in a sea fitted from the channels it leaves untouched (diagnosis.parquet
+    `untouched_sea_gain`): the evidence table gives that test; one that failed it, or passed it behind a stronger
+    candidate, says which."""
+    from types import SimpleNamespace
+
+    from seatune.report.build import _decision
+
+    row = dict(effect="imu_lever_arm", step=1, false_alarm_p=np.nan, cross_fold_gain=np.nan, eligible=False,
+               gain_holdout=-35.1, gain_train=282.0, bic_penalty=9.5, at_bound="", widened="", withdrawn=False,
+               own_sea_gain=np.nan)
+    named = _decision(SimpleNamespace(**row, selected=True, untouched_sea_gain=28.7))
+    assert named.startswith("named at step 1: held out in a sea fitted from the channels it leaves untouched")
+    assert "28.7" in named
+    failed = _decision(SimpleNamespace(**row, selected=False, untouched_sea_gain=-4.7))
+    assert "its untouched" not in failed and "leaves untouched" in failed and "-4.7 nats ≤ 4" in failed
+    behind = _decision(SimpleNamespace(**row, selected=False, untouched_sea_gain=5.7))
+    assert "another vessel candidate fits that sea better" in behind

@@ -551,7 +551,10 @@ def _decision(r) -> str:
         why.append(f"fits some windows only: 2-fold cross-validation gain {cross:.1f} nats ≤ {HOLDOUT_MIN:g}")
     if not why and np.isfinite(p) and not r.eligible:
         why.append(f"not significant: false-alarm p {p:.2g} against the calibrated null")
-    if np.isfinite(untouched):
+    if np.isfinite(untouched) and untouched > HOLDOUT_MIN:
+        why.append(f"in a sea fitted from the channels it leaves untouched ≥ {untouched:.1f} nats held out, but at a "
+                   "bound there or another vessel candidate fits that sea better")
+    elif np.isfinite(untouched):
         why.append(f"held out in a sea fitted from the channels it leaves untouched, or in a half of a 2-fold split "
                    f"there: {untouched:.1f} nats ≤ {HOLDOUT_MIN:g}")
     if np.isfinite(own):
