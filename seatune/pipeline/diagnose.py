@@ -604,10 +604,8 @@ def refit_in_untouched_sea(run, vessel, diagnoser, channels, diag, echo=print):
     echo(f"diagnose ↔ untouched sea: {named.effect} refitted in a sea fitted from {', '.join(keep)}: from its scan "
          + ", ".join(f"{k} {v:.3g}" for k, v in scanned.params.items()) + f", {better:.1f} nats better on the "
          f"training windows than from where it stood: {'taken' if moved else 'kept as named'}")
-    if not moved:
-        return diag
-    row = next(r for r in diag.rows if r["selected"] and r["added"] == named.effect)
-    return _take_untouched_fit(diagnoser, diag, row, scanned)
+    row = next((r for r in diag.rows if r["selected"] and r["added"] == named.effect), None)
+    return _take_untouched_fit(diagnoser, diag, row, scanned) if moved and row is not None else diag
 
 
 def diagnose_stage(run, vessel, echo=print, force: bool = False) -> dict:
