@@ -280,13 +280,13 @@ def _window_weights(rows: list[dict]) -> np.ndarray:
 
 
 def _combine(rows: list[dict], dof: str, method: str, prior_omega: float) -> dict | None:
-    """One value over windows (window_id 'all'): the inverse-variance mean, its interval widened by the Birge ratio
-    when the windows disagree more than their intervals allow. The part of each window's interval that comes from
-    the hindcast's Tp error (`tp_std`) is left out of the weights and added after: one hindcast's error persists over
-    a run's windows, so it does not average down. It was the median from three windows on, against the heavy-tailed
-    errors of a window read against the hindcast's spectral shape; with the sea estimated from the ship (issue 16)
-    the mean is closer on the blind bank (identify rerun: median |error| roll 0.93 → 0.70 %, pitch 0.81 → 0.65 %,
-    heave 0.37 → 0.31 %; roll within 2 % 45 → 49 of 58)."""
+    """One value over windows (window_id 'all'). With three or more windows, the median: a window's estimate
+    has heavy-tailed errors its interval cannot show (the hindcast's spectral shape at the resonance, heave-pitch
+    coupling in quartering seas), and the median ignores one such outlier where the inverse-variance mean
+    follows it. The interval is the inverse-variance one, widened by the Birge ratio when the windows disagree
+    more than their intervals allow, and by √(π/2) for the median's efficiency. The part of each window's interval
+    that comes from the hindcast's Tp error (`tp_std`) is left out of that and added after: one hindcast's error
+    persists over a run's windows, so it does not average down."""
     if not rows:
         return None
     shared = np.array([r.get("tp_std", 0.0) for r in rows])
@@ -296,6 +296,8 @@ def _combine(rows: list[dict], dof: str, method: str, prior_omega: float) -> dic
     sd = float(1.0 / np.sqrt(w.sum()))
     if len(rows) > 1:
         sd *= max(1.0, float(np.sqrt((w * (om - mean) ** 2).sum() / (len(rows) - 1))))
+    if len(rows) >= 3:
+        mean, sd = float(np.median(om)), sd * np.sqrt(np.pi / 2)
     tp_std = float((w * shared).sum() / w.sum())
     sd = float(np.hypot(sd, tp_std))
     zeta = [r["zeta"] for r in rows if np.isfinite(r["zeta"])]
@@ -573,7 +575,7 @@ def debiased_by_draw(rows: list[dict], dof: str, draws, roots: np.ndarray, prior
                      fitted=None) -> np.ndarray | None:
     """The combined measured ω_n of `dof` de-biased at each of `draws` (n loadings, coupled roots `roots`): each
     window's raw fit scaled by root / (the same fit on that loading's model spectrum), combined over the windows as
-    `_combine` does (the inverse-variance mean). The model's fit is known at the
+    `_combine` does (the median from three windows, else the inverse-variance mean). The model's fit is known at the
     first `fitted` loadings of the prior (`fit_by_draw`) and carried to every draw by a quadratic in the uncertain
     parameters fitted to its log. Near an avoided crossing the labelled roots swap with the loading while the fit on
     the model's spectrum moves smoothly: osv_clean_000's pitch fit lands at 0.90 rad/s with the prior's r55 24 m
@@ -600,8 +602,11 @@ def debiased_by_draw(rows: list[dict], dof: str, draws, roots: np.ndarray, prior
         coef, *_ = np.linalg.lstsq(x_fit[ok], y[ok], rcond=None)
         ratios.append(r["raw_omega"] / np.exp(x_all @ coef))
     ratios = np.array(ratios)  # (windows, draws)
-    w = _window_weights(wins)
-    combined = w @ ratios / w.sum()
+    if len(wins) >= 3:
+        combined = np.median(ratios, axis=0)
+    else:
+        w = _window_weights(wins)
+        combined = w @ ratios / w.sum()
     return roots * combined
 
 
