@@ -431,6 +431,20 @@ def retest_later_effect(run, vessel, diagnoser, channels, diag, augmented: Path,
     return replace(diag, winner=earlier), [effect.name], (alternated, made) if alone is earlier else None
 
 
+def held_out_and_folds(diagnoser, fit, held_out: float, gain_of, folds: bool = True) -> dict:
+    """{"held_out": `held_out`, and where it exceeds HOLDOUT_MIN (and `folds`) "fold_0", "fold_1"}: `gain_of(rep,
+    fold_base, fold_fit)` of each half of `diagnoser.fold_fits`, −inf where the fold's fit stops at a bound."""
+    from seatune.diagnosis.select import HOLDOUT_MIN, _at_bound
+
+    gains = {"held_out": held_out}
+    if folds and held_out > HOLDOUT_MIN:
+        for fold in (0, 1):
+            rep, fold_base, fold_fit = diagnoser.fold_fits(fit, fold)
+            gains[f"fold_{fold}"] = (gain_of(rep, fold_base, fold_fit)
+                                     if not _at_bound(fold_fit.effect_used, fold_fit.params) else -np.inf)
+    return gains
+
+
 def held_out_in_own_sea(run, vessel, diagnoser, channels, diag, augmented: Path, echo=print):
     """Where nothing was named, the vessel candidate with the largest training gain over BIC's penalty (no parameter
     at a bound; it failed held out or across the folds, not by the calibrated test nor in a sea fitted from the
@@ -442,7 +456,7 @@ def held_out_in_own_sea(run, vessel, diagnoser, channels, diag, augmented: Path,
     measured, and that of each half of a 2-fold split of the windows (fitted on one half, its sea refitted, held out on
     the other), exceed HOLDOUT_MIN. Returns (the diagnosis, {test: gain} or None)."""
     from seatune.diagnosis.effects import SEA_SIDE
-    from seatune.diagnosis.select import HOLDOUT_MIN, _at_bound
+    from seatune.diagnosis.select import HOLDOUT_MIN
 
     if diag.winner is not None:
         return diag, None
@@ -461,12 +475,7 @@ def held_out_in_own_sea(run, vessel, diagnoser, channels, diag, augmented: Path,
         own = in_refitted_sea(run, vessel, diagnoser, channels, roles=d.data.roles)
         return float(base_fit.nll_holdout - own.nll(fit.phi, fit.effect_used, fit.params, which=own.holdout))
 
-    gains = {"held_out": own_sea_gain(diagnoser, base, row["fit"])}
-    if gains["held_out"] > HOLDOUT_MIN:
-        for fold in (0, 1):
-            rep, fold_base, fold_fit = diagnoser.fold_fits(row["fit"], fold)
-            gains[f"fold_{fold}"] = own_sea_gain(rep, fold_base, fold_fit) \
-                if not _at_bound(fold_fit.effect_used, fold_fit.params) else -np.inf
+    gains = held_out_and_folds(diagnoser, row["fit"], own_sea_gain(diagnoser, base, row["fit"]), own_sea_gain)
     passed = min(gains.values()) > HOLDOUT_MIN
     echo(f"diagnose ↔ own sea: {row['added']} held out in its own sea: "  # not the stage's one `diagnose:` line
          + ", ".join(f"{k} {v:.1f}" for k, v in gains.items()) + f" nats: {'named' if passed else 'not named'}")
@@ -486,10 +495,9 @@ def untouched_sea(run, vessel, diagnoser, channels, effect, phi):
     two. The loading belief: `phi` with the tune's posterior std."""
     import pyarrow.parquet as pq
 
-    from seatune.pipeline.sea import sea_channels, sea_stage
+    from seatune.pipeline.sea import run_sea_channels, sea_stage
 
-    motion_columns = set(pq.read_schema(run.artefact("motions.parquet")).names)
-    sea = run.spec.sea.channels or sea_channels(vessel, motion_columns)
+    sea = run_sea_channels(run, vessel, set(pq.read_schema(run.artefact("motions.parquet")).names))
     keep = effect.untouched(vessel, sea)
     if keep is None or not 2 <= len(keep) < len(sea):
         return None
@@ -543,12 +551,9 @@ def held_out_in_untouched_sea(run, vessel, diagnoser, channels, diag, echo=print
         untouched, keep = found
         base = untouched.base_fit()
         fit = untouched.fit(effect, start=base)
-        gains = {"held_out": base.nll_holdout - fit.nll_holdout}
-        if gains["held_out"] > HOLDOUT_MIN and base.nll_train - fit.nll_train > row["bic_penalty"]:
-            for fold in (0, 1):
-                _, fold_base, fold_fit = untouched.fold_fits(fit, fold)
-                gains[f"fold_{fold}"] = (fold_base.nll_holdout - fold_fit.nll_holdout
-                                         if not _at_bound(fold_fit.effect_used, fold_fit.params) else -np.inf)
+        gains = held_out_and_folds(untouched, fit, base.nll_holdout - fit.nll_holdout,
+                                   lambda _, fold_base, fold_fit: fold_base.nll_holdout - fold_fit.nll_holdout,
+                                   folds=base.nll_train - fit.nll_train > row["bic_penalty"])
         passed = len(gains) == 3 and min(gains.values()) > HOLDOUT_MIN and not _at_bound(fit.effect_used, fit.params)
         stronger = _stronger_there(untouched, base, fit, row, rows) if passed else None
         echo(f"diagnose ↔ untouched sea: {row['added']} in a sea fitted from {', '.join(keep)}: training "

@@ -51,6 +51,11 @@ ROLL_FREE_FILE = "sea_states_roll_free.parquet"  # the sea fitted without the ro
 _MEASURED_KINDS = ("angle", "specific_force", "acceleration", "displacement", "velocity")
 
 
+def run_sea_channels(run, vessel, available) -> list[str]:
+    """The channels the run's sea is fitted from: `sea.channels`, else `sea_channels` of those `available`."""
+    return run.spec.sea.channels or sea_channels(vessel, available)
+
+
 def sea_channels(model, available) -> list[str]:
     """The angles, the translations on every axis and the rate about an axis no angle measures (the yaw rate): a
     wave buoy's horizontal motions, not only its heave and slopes, carry the direction. Roll and pitch rates repeat
@@ -378,7 +383,7 @@ def sea_stage(run, vessel, echo=print, force: bool = False, parameters=None, art
         return {"skipped": True}
     motions, windows = MotionTable(src[0]), pd.read_parquet(src[1])
     hc = read_hindcast(run.hindcast_path, format=run.spec.hindcast.format)
-    channels = channels or settings.channels or sea_channels(vessel, set(motions.columns))
+    channels = channels or run_sea_channels(run, vessel, set(motions.columns))
     unknown = [c for c in channels if c not in motions.columns or c not in {ch.name for ch in vessel.channels}]
     if unknown:
         raise UserError(str(run.path), "sea.channels", f"not both a vessel channel and a motion column: "
