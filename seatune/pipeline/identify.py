@@ -279,6 +279,15 @@ def _window_weights(rows: list[dict]) -> np.ndarray:
     return 1.0 / np.maximum(std**2 - shared**2, 1e-18)
 
 
+def _over_windows(rows: list[dict], values: np.ndarray) -> np.ndarray:
+    """`values` (windows × …) combined as `_combine` combines ω_n: the median from three windows, else the
+    inverse-variance mean."""
+    if len(rows) >= 3:
+        return np.median(values, axis=0)
+    w = _window_weights(rows)
+    return w @ values / w.sum()
+
+
 def _combine(rows: list[dict], dof: str, method: str, prior_omega: float) -> dict | None:
     """One value over windows (window_id 'all'). With three or more windows, the median: a window's estimate
     has heavy-tailed errors its interval cannot show (the hindcast's spectral shape at the resonance, heave-pitch
@@ -297,7 +306,7 @@ def _combine(rows: list[dict], dof: str, method: str, prior_omega: float) -> dic
     if len(rows) > 1:
         sd *= max(1.0, float(np.sqrt((w * (om - mean) ** 2).sum() / (len(rows) - 1))))
     if len(rows) >= 3:
-        mean, sd = float(np.median(om)), sd * np.sqrt(np.pi / 2)
+        mean, sd = float(_over_windows(rows, om)), sd * np.sqrt(np.pi / 2)
     tp_std = float((w * shared).sum() / w.sum())
     sd = float(np.hypot(sd, tp_std))
     zeta = [r["zeta"] for r in rows if np.isfinite(r["zeta"])]
@@ -575,11 +584,11 @@ def debiased_by_draw(rows: list[dict], dof: str, draws, roots: np.ndarray, prior
                      fitted=None) -> np.ndarray | None:
     """The combined measured ω_n of `dof` de-biased at each of `draws` (n loadings, coupled roots `roots`): each
     window's raw fit scaled by root / (the same fit on that loading's model spectrum), combined over the windows as
-    `_combine` does (the median from three windows, else the inverse-variance mean). The model's fit is known at the
-    first `fitted` loadings of the prior (`fit_by_draw`) and carried to every draw by a quadratic in the uncertain
-    parameters fitted to its log. Near an avoided crossing the labelled roots swap with the loading while the fit on
-    the model's spectrum moves smoothly: osv_clean_000's pitch fit lands at 0.90 rad/s with the prior's r55 24 m
-    (root 0.92) and at 0.85 with the truth's 25.9 m (root 0.83), against 0.87 measured. None without such fits."""
+    `_combine` does (`_over_windows`). The model's fit is known at the first `fitted` loadings of the prior
+    (`fit_by_draw`) and carried to every draw by a quadratic in the uncertain parameters fitted to its log. Near an
+    avoided crossing the labelled roots swap with the loading while the fit on the model's spectrum moves smoothly:
+    osv_clean_000's pitch fit lands at 0.90 rad/s with the prior's r55 24 m (root 0.92) and at 0.85 with the truth's
+    25.9 m (root 0.83), against 0.87 measured. None without such fits."""
     wins = [r for r in rows if r["dof"] == dof and r["method"] == "admittance_peak_sdof"
             and r["window_id"] != "all" and r.get("fit_by_draw") is not None]
     if not wins or fitted is None:
@@ -602,12 +611,7 @@ def debiased_by_draw(rows: list[dict], dof: str, draws, roots: np.ndarray, prior
         coef, *_ = np.linalg.lstsq(x_fit[ok], y[ok], rcond=None)
         ratios.append(r["raw_omega"] / np.exp(x_all @ coef))
     ratios = np.array(ratios)  # (windows, draws)
-    if len(wins) >= 3:
-        combined = np.median(ratios, axis=0)
-    else:
-        w = _window_weights(wins)
-        combined = w @ ratios / w.sum()
-    return roots * combined
+    return roots * _over_windows(wins, ratios)
 
 
 def posterior_rows(model, rows: list[dict], center, known, settings, shifted=()) -> list[dict]:
